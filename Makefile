@@ -1,0 +1,37 @@
+# nsp — two commands on a fresh machine: `make demo` and `make test`.
+PY      ?= python3.11
+VENV    ?= .venv
+BIN     := $(VENV)/bin
+STAMP   := $(VENV)/.installed
+ARCH    := $(shell uname -m)
+# The torch/torchvision pair that installs from this machine's disk (SPEC, DEVELOPERS).
+ifeq ($(ARCH),x86_64)
+TORCH   := torch==2.14.1 torchvision==0.29.1
+else
+TORCH   := torch==2.9.1 torchvision==0.24.1
+endif
+
+.PHONY: setup demo test bench clean
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q $(TORCH)
+	$(BIN)/pip install -q -e '.[dev]'
+	touch $(STAMP)
+
+demo: setup
+	$(BIN)/python -m nsp.paint hydra.run.dir=outputs/demo
+	@echo "Results in outputs/demo: final.png painting.svg animation.gif strokes.json metrics.json"
+
+test: setup
+	$(BIN)/python -m pytest -n 2
+
+bench: setup
+	$(BIN)/python benchmarks/engine.py
+	$(BIN)/python benchmarks/painter.py
+
+clean:
+	rm -rf $(VENV) outputs/demo .pytest_cache

@@ -1,0 +1,79 @@
+"""A brush is data (its parameter spec) plus one rendering function (its signed distance and shading).
+
+Every stroke parameter lies in [0, 1]. Coordinates: x to the right, y down; a position p lands on
+pixel p·(W−1) (x) or p·(H−1) (y); sizes are fractions of the canvas width W.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import torch
+from torch import Tensor
+
+# What each parameter means geometrically; lets generic code (blocks, import, export) move strokes.
+KINDS = ("x", "y", "size", "angle", "ctrl_x", "ctrl_y", "color", "alpha")
+
+
+@dataclass(frozen=True)
+class Pixels:
+    """Pixel centres in canvas pixel units, one row per stroke: px, py of shape (P, N)."""
+
+    px: Tensor
+    py: Tensor
+    width: int
+    height: int
+
+
+@dataclass(frozen=True, eq=False)
+class Brush:
+    """Parameter spec of one brush.
+
+    Attributes:
+        name: config name (``brush=name``).
+        params: parameter names in the paper's order.
+        kinds: one of :data:`KINDS` per parameter.
+        shape, color: indices of the shape and colour parameters.
+        alpha: index of the transparency parameter, or ``None`` where A ≡ 1.
+    """
+
+    name: str
+    params: tuple[str, ...]
+    kinds: tuple[str, ...]
+    shape: tuple[int, ...]
+    color: tuple[int, ...]
+    alpha: int | None = None
+    description: str = ""
+    options: dict = field(default_factory=dict)
+
+    @property
+    def d(self) -> int:
+        """Number of parameters of one stroke."""
+        return len(self.params)
+
+    def sample(self, n: int, generator: torch.Generator | None = None, device=None) -> Tensor:
+        """Uniform random strokes over the whole parameter space: (n, d) in [0, 1]."""
+        return torch.rand(n, self.d, generator=generator, device=device)
+
+    def validate(self, x: Tensor) -> None:
+        """Raise ``ValueError`` naming the problem if ``x`` is not a (N, d) array in [0, 1]."""
+        if x.ndim != 2 or x.shape[1] != self.d:
+            raise ValueError(
+                f"{self.name} strokes need {self.d} parameters ({', '.join(self.params)}), "
+                f"got an array of shape {tuple(x.shape)}"
+            )
+        if not torch.isfinite(x).all() or x.min() < 0 or x.max() > 1:
+            bad = x[~((x >= 0) & (x <= 1))]
+            raise ValueError(f"stroke parameters must lie in [0, 1], got {bad.flatten()[0].item():g}")
+
+    # --- rendering: implemented by each brush -------------------------------------------------
+    def bound(self, x: Tensor, pix: Pixels) -> Tensor:
+        """A 1-Lipschitz lower bound (pixels) of the signed distance, for culling: (P, N)."""
+        raise NotImplementedError
+
+    def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
+        """Colour (P, 3, N) and alpha (P, N) of strokes ``x`` (P, d) at the given pixels.
+
+        ``coverage`` maps a signed distance in pixels (negative inside) to [0, 1]: a box filter for
+        antialiased rendering, a sigmoid for the soft, differentiable mode.
+        """
+        raise NotImplementedError

@@ -1,0 +1,57 @@
+"""Oil paint: an opaque rotated rectangle carrying a bristle texture, its colour blending from
+(R0, G0, B0) at the head to (R2, G2, B2) at the tail."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor
+
+from nsp.brushes.base import Brush, Pixels
+from nsp.brushes.tape import rectangle
+from nsp.brushes.texture import bristle_texture, load_texture
+from nsp.engine.geometry import box
+
+_OPAQUE = 0.4  # texture values above this are fully covered with paint
+
+
+@dataclass(frozen=True, eq=False)
+class OilPaint(Brush):
+    texture_path: str | None = None
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    def texture(self, device, dtype) -> Tensor:
+        """The bristle texture as (1, 1, h, w) on ``device``."""
+        key = (str(device), dtype)
+        if key not in self._cache:
+            tex = load_texture(self.texture_path) if self.texture_path else bristle_texture()
+            self._cache[key] = tex[None, None].to(device=device, dtype=dtype)
+        return self._cache[key]
+
+    def bound(self, x: Tensor, pix: Pixels) -> Tensor:
+        return box(*rectangle(x, pix))
+
+    def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
+        along, across, half_w, half_h = rectangle(x, pix)
+        cov = coverage(box(along, across, half_w, half_h))
+        u = along / (2 * half_w.clamp(min=0.5))[:, None] + 0.5  # 0 at the head, 1 at the tail
+        v = across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5
+        tex = self.texture(x.device, x.dtype)
+        grid = torch.stack([2 * u - 1, 2 * v - 1], -1)[:, None]  # (P, 1, N, 2)
+        value = F.grid_sample(tex.expand(x.shape[0], -1, -1, -1), grid, align_corners=True)[:, 0, 0]
+        alpha = cov * (value / _OPAQUE).clamp(0, 1)
+        c0, c2 = x[:, 5:8, None], x[:, 8:11, None]
+        color = (c0 + (c2 - c0) * u.clamp(0, 1)[:, None]) * (0.7 + 0.3 * value[:, None])
+        return color * (alpha > 0)[:, None], alpha
+
+
+OILPAINT = OilPaint(
+    name="oilpaint",
+    params=("x", "y", "w", "h", "theta", "R0", "G0", "B0", "R2", "G2", "B2"),
+    kinds=("x", "y", "size", "size", "angle") + ("color",) * 6,
+    shape=(0, 1, 2, 3, 4),
+    color=tuple(range(5, 11)),
+    alpha=None,
+    description="opaque rotated rectangle with a bristle texture; colour blends head to tail",
+)

@@ -1,0 +1,28 @@
+"""Config schemas shared by the entry points, registered in Hydra's ConfigStore.
+
+The ``brush`` group is generated from :data:`nsp.brushes.BRUSHES`, so a new brush needs no YAML and a
+misspelt ``brush=`` fails at compose time listing the valid brushes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+from hydra.core.config_store import ConfigStore
+
+from nsp.brushes import BRUSHES
+
+
+@dataclass
+class BrushConfig:
+    name: str
+    texture: Optional[str] = None  # grayscale image for oilpaint's bristles; None = nsp's own
+
+
+def register_brushes() -> None:
+    cs = ConfigStore.instance()
+    for name in BRUSHES:
+        cs.store(group="brush", name=name, node=BrushConfig(name=name))
+
+
+register_brushes()

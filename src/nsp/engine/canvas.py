@@ -1,0 +1,50 @@
+"""Whole paintings: an ordered stroke list composited onto a coloured canvas."""
+from __future__ import annotations
+
+import re
+
+import torch
+from torch import Tensor
+
+from nsp.brushes.base import Brush
+from nsp.engine.raster import composite, render
+
+_NAMED = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
+
+
+def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
+    """``black``, ``white``, ``#rrggbb`` or an RGB triple in [0, 1] -> (r, g, b) in [0, 1]."""
+    if isinstance(value, (tuple, list)) and len(value) == 3:
+        return tuple(float(v) for v in value)
+    text = str(value).strip().lower()
+    if text in _NAMED:
+        return _NAMED[text]
+    if re.fullmatch(r"#[0-9a-f]{6}", text):
+        return tuple(int(text[i : i + 2], 16) / 255 for i in (1, 3, 5))
+    raise ValueError(f"canvas={value} is not a colour; expected black, white or #rrggbb")
+
+
+def paint_canvas(
+    brush: Brush,
+    strokes: Tensor,
+    height: int,
+    width: int,
+    background: str | tuple = "white",
+    *,
+    softness: float | None = None,
+    budget: int = 2**26,
+    canvas: Tensor | None = None,
+) -> Tensor:
+    """Composite ``strokes`` (N, d), in order, onto a canvas: (3, H, W) in [0, 1].
+
+    Strokes are rendered in chunks of at most ``budget`` floats so any size fits in memory.
+    ``canvas`` (3, H, W), if given, replaces the plain ``background``.
+    """
+    if canvas is None:
+        color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)
+        canvas = color[:, None, None].expand(3, height, width)
+    chunk = max(1, budget // (8 * height * width))
+    for start in range(0, strokes.shape[0], chunk):
+        fg, alpha = render(brush, strokes[start : start + chunk], height, width, softness=softness)
+        canvas = composite(fg, alpha, canvas)
+    return canvas
