@@ -21,12 +21,21 @@ class OilPaint(Brush):
     texture_path: str | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
-    def texture(self, device, dtype) -> Tensor:
-        """The bristle texture as (1, 1, h, w) on ``device``."""
-        key = (str(device), dtype)
+    def texture(self, device, dtype, canvas_width: int | None = None) -> Tensor:
+        """The bristle texture as (1, 1, h, w) on ``device``.
+
+        For a canvas narrower than the texture it is area-downsampled to at most the canvas width,
+        so small renders are not aliased (a mipmap level).
+        """
+        key = (str(device), dtype, canvas_width)
         if key not in self._cache:
             tex = load_texture(self.texture_path) if self.texture_path else bristle_texture()
-            self._cache[key] = tex[None, None].to(device=device, dtype=dtype)
+            tex = tex[None, None].to(device=device, dtype=dtype)
+            if canvas_width is not None and canvas_width < tex.shape[-1]:
+                scale = max(canvas_width, 16) / tex.shape[-1]
+                size = (max(4, round(tex.shape[-2] * scale)), max(16, round(tex.shape[-1] * scale)))
+                tex = F.interpolate(tex, size=size, mode="area")
+            self._cache[key] = tex
         return self._cache[key]
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
@@ -37,7 +46,7 @@ class OilPaint(Brush):
         cov = coverage(box(along, across, half_w, half_h))
         u = along / (2 * half_w.clamp(min=0.5))[:, None] + 0.5  # 0 at the head, 1 at the tail
         v = across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5
-        tex = self.texture(x.device, x.dtype)
+        tex = self.texture(x.device, x.dtype, pix.width)
         grid = torch.stack([2 * u - 1, 2 * v - 1], -1)[:, None]  # (P, 1, N, 2)
         value = F.grid_sample(tex.expand(x.shape[0], -1, -1, -1), grid, align_corners=True)[:, 0, 0]
         alpha = cov * (value / _OPAQUE).clamp(0, 1)

@@ -66,7 +66,7 @@ def render(
 
     py = (ty[t, None, None] + offs[None, :, None]).expand(-1, tile, tile)
     px = (tx[t, None, None] + offs[None, None, :]).expand(-1, tile, tile)
-    pixels = Pixels(px.reshape(len(t), -1), py.reshape(len(t), -1), width, height)
+    pixels = Pixels(px.reshape(len(t), tile * tile), py.reshape(len(t), tile * tile), width, height)
     fg, alpha = brush.paint(x[b], pixels, coverage)  # (P, 3, N), (P, N)
 
     values = torch.cat([fg, alpha[:, None]], 1)  # (P, 4, N)

@@ -1,0 +1,1 @@
+"""Stroke files and exports: nsp JSON, the reference implementation's .npz, PNG, SVG, GIF."""

@@ -1,0 +1,25 @@
+"""Neural stroke renderers (SPEC §4): a stroke vector x (B, d) -> foreground (B, 3, S, S), alpha (B, 1, S, S).
+
+One module per family; each is a plain ``nn.Module`` built from ``conf/train/renderer/*.yaml`` by
+``_target_`` and knows nothing of training.
+"""
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+from hydra.utils import instantiate
+from torch import nn
+
+from nsp.renderers.common import SIZES
+from nsp.renderers.dcgan import DCGAN, ShadingNetwork
+from nsp.renderers.dual import DualPathway
+from nsp.renderers.pxlshuffle import PxlShuffleNet, RasterizationNetwork
+from nsp.renderers.unet import UNet
+
+
+def build(config: Mapping[str, Any], brush: str) -> nn.Module:
+    """The renderer a ``renderer`` config node describes (``_target_``, ``size``, ``width``, …) for ``brush``."""
+    return instantiate(dict(config), brush=brush, _convert_="all")
+
+
+__all__ = ["DCGAN", "SIZES", "DualPathway", "PxlShuffleNet", "RasterizationNetwork", "ShadingNetwork", "UNet", "build"]

@@ -1,0 +1,15 @@
+"""What every renderer family shares: the output sizes and the channel-width multiplier."""
+from __future__ import annotations
+
+SIZES = (32, 64, 128)  # the networks double the resolution layer by layer from 4×4 (DCGAN) or 16×16 (shuffle)
+
+
+def check_size(size: int) -> None:
+    """Raise ``ValueError`` unless ``size`` is one of :data:`SIZES`."""
+    if size not in SIZES:
+        raise ValueError(f"renderer size must be one of {', '.join(map(str, SIZES))}, got {size}")
+
+
+def channels(base: int, width: float) -> int:
+    """``base`` channels (the paper's count) scaled by the width multiplier, at least one."""
+    return max(1, round(base * width))

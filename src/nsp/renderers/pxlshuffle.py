@@ -1,0 +1,62 @@
+"""PxlShuffleNet (Huang et al. 2019): fully connected layers, a 16×16 view, a conv/pixel-shuffle decoder.
+
+The paper's rasterization network (appendix table) is this network: at S = 128 and width 1 its
+layers are F1..F4 512-1024-2048-4096 · view 16×16×16 · three stages of Conv 3×3 + ReLU, Conv 3×3 +
+pixel shuffle ×2 with (32, 32), (16, 16), (8, 4) filters, ending at 128×128×1.
+A smaller S drops the stages before the output one.
+"""
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import Tensor, nn
+
+from nsp.brushes import get_brush
+from nsp.renderers.common import channels, check_size
+
+PAPER_FEATURES = (512, 1024, 2048)  # F1..F3; F4 is the 16×16 view
+PAPER_STAGES = ((32, 32), (16, 16))  # filters of the stages before the output stage (which has 8, 4·out)
+
+
+class RasterizationNetwork(nn.Module):
+    """(B, in_features) -> (B, out_channels, S, S) logits."""
+
+    def __init__(self, in_features: int, out_channels: int, size: int = 128, width: float = 1.0):
+        super().__init__()
+        check_size(size)
+        self.view = channels(16, width)  # F4 has view·16·16 features: 4096 at width 1
+        features = [channels(f, width) for f in PAPER_FEATURES] + [self.view * 256]
+        fc: list[nn.Module] = []
+        for f_in, f_out in zip([in_features, *features], features):
+            fc += [nn.Linear(f_in, f_out), nn.ReLU(inplace=True)]
+        self.fc = nn.Sequential(*fc)
+
+        n_stages = int(math.log2(size // 16))
+        stages = [(channels(a, width), channels(b, width)) for a, b in PAPER_STAGES[: n_stages - 1]]
+        stages.append((channels(8, width), 4 * out_channels))  # the output stage shuffles to out_channels
+        convs: list[nn.Module] = []
+        c_in = self.view
+        for a, b in stages:
+            convs += [nn.Conv2d(c_in, a, 3, padding=1), nn.ReLU(inplace=True), nn.Conv2d(a, b, 3, padding=1), nn.PixelShuffle(2)]
+            c_in = b // 4
+        self.convs = nn.Sequential(*convs)
+
+    def forward(self, x: Tensor) -> Tensor:
+        return self.convs(self.fc(x).view(-1, self.view, 16, 16))
+
+
+class PxlShuffleNet(nn.Module):
+    """PxlShuffleNet renderer: all stroke parameters -> foreground and alpha.
+
+    ``(B, d) -> (B, 3, S, S), (B, 1, S, S)``, both in [0, 1].
+    """
+
+    def __init__(self, brush: str, size: int = 128, width: float = 1.0):
+        super().__init__()
+        self.size = size
+        self.net = RasterizationNetwork(get_brush(brush).d, 4, size, width)
+
+    def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:
+        out = torch.sigmoid(self.net(x))
+        return out[:, :3], out[:, 3:]

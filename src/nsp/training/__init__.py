@@ -1,0 +1,113 @@
+"""Training neural renderers (SPEC §4, §6): the Lightning module, the stroke data, ``train(cfg)``."""
+from __future__ import annotations
+
+import json
+import pickle
+import time
+from pathlib import Path
+
+import lightning as L
+import torch
+from hydra.core.hydra_config import HydraConfig
+from hydra.utils import instantiate
+from lightning.pytorch.callbacks import Callback, LearningRateMonitor, ModelCheckpoint, RichProgressBar
+from lightning.pytorch.loggers import TensorBoardLogger
+from omegaconf import DictConfig, OmegaConf
+from torch import nn
+
+from nsp.renderers import build
+from nsp.training.data import StrokeData
+from nsp.training.module import RendererModule
+
+METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha")
+
+
+class SaveOnInterrupt(Callback):
+    """Saves a resumable checkpoint when training is interrupted (Ctrl-C).
+
+    Lightning's ``OnExceptionCheckpoint`` does too, but also turns every ``fit`` into a resume from the
+    last checkpoint it finds.
+    """
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def on_exception(self, trainer: L.Trainer, pl_module: L.LightningModule, exception: BaseException) -> None:
+        if isinstance(exception, KeyboardInterrupt):
+            trainer.save_checkpoint(self.path)
+
+
+def train(cfg: DictConfig) -> dict:
+    """Train the renderer ``cfg`` describes; write checkpoints, TensorBoard events and ``metrics.json``.
+
+    Returns the metrics written to ``metrics.json``.
+    """
+    L.seed_everything(cfg.seed, workers=True)
+    out = Path(cfg.output_dir)
+    data = StrokeData(cfg.brush.name, cfg.model.size, seed=cfg.seed, texture=cfg.brush.texture, **cfg.data)
+    model = RendererModule(
+        renderer=OmegaConf.to_container(cfg.renderer, resolve=True),
+        brush=cfg.brush.name,
+        optimizer=instantiate(cfg.model.optimizer),
+        scheduler=instantiate(cfg.model.scheduler),
+        scheduler_interval=cfg.model.scheduler_interval,
+    )
+    logger = TensorBoardLogger(out, name="tensorboard", version="", default_hp_metric=False)
+    checkpoints = out / "checkpoints"
+    callbacks = [
+        ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True),
+        SaveOnInterrupt(checkpoints / "last.ckpt"),
+        LearningRateMonitor(),
+        RichProgressBar(),
+    ]
+    trainer: L.Trainer = instantiate(cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out)
+
+    start = time.perf_counter()
+    try:
+        trainer.fit(model, datamodule=data, ckpt_path=cfg.ckpt_path)
+    except SystemExit:  # Lightning exits after a Ctrl-C, once last.ckpt is saved
+        _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
+        raise
+    return _finish(trainer, logger, cfg, trainer.validate(model, datamodule=data, verbose=False)[0], start, "completed")
+
+
+def _finish(trainer: L.Trainer, logger: TensorBoardLogger, cfg: DictConfig, scores, start: float, status: str) -> dict:
+    """Write ``metrics.json`` and the HPARAMS entry (final scores under ``final/*``); return the metrics."""
+    renderer = HydraConfig.get().runtime.choices.renderer
+    metrics = {k: round(float(scores[k]), 3) for k in METRICS if k in scores} | {
+        "steps": trainer.global_step,
+        "seconds": round(time.perf_counter() - start, 1),
+        "renderer": renderer,
+        "brush": cfg.brush.name,
+        "size": cfg.model.size,
+        "status": status,
+    }
+    if trainer.is_global_zero:
+        hparams = {
+            "renderer": renderer, "brush": cfg.brush.name, "size": cfg.model.size, "width": cfg.model.width,
+            "batch_size": cfg.data.batch_size, "lr": cfg.model.optimizer.get("lr"), "seed": cfg.seed,
+        }
+        logger.log_hyperparams(hparams, {k.replace("val/", "final/"): metrics[k] for k in METRICS if k in metrics})
+        (Path(cfg.output_dir) / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    return metrics
+
+
+def load_renderer(path, map_location="cpu") -> tuple[nn.Module, str, int]:
+    """The renderer saved in a checkpoint of ``python -m nsp.train``, in eval mode, its brush and size.
+
+    Raises ``ValueError`` for a file that is not such a checkpoint.
+    """
+    if not Path(path).is_file():
+        raise ValueError(f"renderer checkpoint {path} does not exist")
+    try:
+        ckpt = torch.load(path, map_location=map_location, weights_only=True)
+        config, brush = ckpt["hyper_parameters"]["renderer"], ckpt["hyper_parameters"]["brush"]
+    except (pickle.UnpicklingError, RuntimeError, KeyError, TypeError, IndexError) as error:
+        raise ValueError(f"{path} is not an nsp renderer checkpoint (train one with `python -m nsp.train`): {error}") from None
+    renderer = build(config, brush)
+    prefix = "renderer."
+    renderer.load_state_dict({k[len(prefix):]: v for k, v in ckpt["state_dict"].items() if k.startswith(prefix)})
+    return renderer.eval(), brush, int(config["size"])
+
+
+__all__ = ["RendererModule", "StrokeData", "load_renderer", "train"]

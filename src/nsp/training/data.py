@@ -1,0 +1,104 @@
+"""Training data: random strokes drawn on the fly by the vector engine, and a fixed validation set."""
+from __future__ import annotations
+
+import math
+
+import lightning as L
+import numpy as np
+import torch
+from torch import Tensor
+from torch.utils.data import DataLoader, Dataset, Sampler, TensorDataset
+
+from nsp.brushes import Brush, get_brush
+from nsp.engine import render
+
+
+def generator(*seed: int) -> torch.Generator:
+    """A generator seeded from a tuple of integers (NumPy's ``SeedSequence`` keeps the streams apart)."""
+    state = np.random.SeedSequence(seed).generate_state(1, np.uint64)[0]
+    return torch.Generator().manual_seed(int(state))
+
+
+def draw(brush: Brush, n: int, size: int, gen: torch.Generator, chunk: int = 256) -> tuple[Tensor, Tensor, Tensor]:
+    """``n`` strokes uniform over the parameter space and their antialiased renderings.
+
+    Returns x (n, d), foreground (n, 3, size, size), alpha (n, 1, size, size).
+    """
+    x = brush.sample(n, generator=gen)
+    fg, alpha = zip(*(render(brush, part, size) for part in x.split(chunk)))
+    return x, torch.cat(fg), torch.cat(alpha)
+
+
+class RandomStrokes(Dataset):
+    """Item i is batch i of an endless stream of fresh random strokes, seeded by (seed, 0, i).
+
+    A batch depends on its index only, so the stream is the same whatever the number of workers or
+    processes that render it.
+    """
+
+    def __init__(self, brush: Brush, size: int, batch_size: int, seed: int):
+        self.brush, self.size, self.batch_size, self.seed = brush, size, batch_size, seed
+
+    def __getitem__(self, index: int) -> tuple[Tensor, Tensor, Tensor]:
+        return draw(self.brush, self.batch_size, self.size, generator(self.seed, 0, index))
+
+
+class EpochSampler(Sampler[int]):
+    """Batch indices of one epoch, new ones every epoch (Lightning calls ``set_epoch``), split over ranks."""
+
+    def __init__(self, batches: int, rank: int = 0, world_size: int = 1):
+        self.batches, self.rank, self.world_size, self.epoch = batches, rank, world_size, 0
+
+    def set_epoch(self, epoch: int) -> None:
+        self.epoch = epoch
+
+    def __len__(self) -> int:
+        return len(range(self.rank, self.batches, self.world_size))
+
+    def __iter__(self):
+        start = self.epoch * self.batches
+        return iter(range(start + self.rank, start + self.batches, self.world_size))
+
+
+class StrokeData(L.LightningDataModule):
+    """Random training strokes of one brush (fresh every epoch) and a fixed, seeded validation set.
+
+    Batches are ``(x (B, d), foreground (B, 3, S, S), alpha (B, 1, S, S))``.
+    """
+
+    def __init__(
+        self,
+        brush: str,
+        size: int,
+        batch_size: int = 64,
+        epoch_size: int = 50_000,
+        val_size: int = 1024,
+        val_seed: int = 0,
+        seed: int = 0,
+        num_workers: int = 0,
+        texture: str | None = None,
+    ):
+        super().__init__()
+        self.brush = get_brush(brush, texture)
+        self.size, self.batch_size, self.num_workers = size, batch_size, num_workers
+        self.batches = math.ceil(epoch_size / batch_size)
+        self.val_size, self.val_seed, self.seed = val_size, val_seed, seed
+
+    def setup(self, stage: str) -> None:
+        if not hasattr(self, "val_set"):
+            # Drawn once from its own seed (stream 1; training is stream 0), so every run scores the same strokes.
+            self.val_set = TensorDataset(*draw(self.brush, self.val_size, self.size, generator(self.val_seed, 1)))
+        self.train_set = RandomStrokes(self.brush, self.size, self.batch_size, self.seed)
+
+    def train_dataloader(self) -> DataLoader:
+        rank, world = (self.trainer.global_rank, self.trainer.world_size) if self.trainer else (0, 1)
+        return DataLoader(
+            self.train_set,
+            batch_size=None,  # an item is already a batch
+            sampler=EpochSampler(self.batches, rank, world),
+            num_workers=self.num_workers,
+            persistent_workers=self.num_workers > 0,
+        )
+
+    def val_dataloader(self) -> DataLoader:
+        return DataLoader(self.val_set, batch_size=self.batch_size)

@@ -1,0 +1,92 @@
+"""The Lightning wrapper that trains any neural renderer against the vector engine."""
+from __future__ import annotations
+
+from typing import Any, Callable, Optional
+
+import lightning as L
+import torch
+import torch.nn.functional as F
+from lightning.pytorch.loggers import TensorBoardLogger
+from torch import Tensor
+from torchmetrics.image import PeakSignalNoiseRatio
+from torchvision.utils import make_grid
+
+from nsp.renderers import build
+
+PREVIEW = 8  # validation strokes shown in the TensorBoard image grid
+
+
+class RendererModule(L.LightningModule):
+    """L2 on foreground and alpha; accuracy = mean of PSNR(foreground) and PSNR(alpha) (the paper's).
+
+    Args:
+        renderer: the ``renderer`` config node as a plain dict (``_target_``, ``size``, ``width``, …);
+            saved in the checkpoint with ``brush`` so :func:`nsp.training.load_renderer` rebuilds it.
+        brush: brush name.
+        optimizer: ``params -> Optimizer`` (a Hydra ``_partial_``).
+        scheduler: ``optimizer -> LRScheduler``, or None for a constant rate.
+        scheduler_interval: ``"epoch"`` or ``"step"``.
+    """
+
+    def __init__(
+        self,
+        renderer: dict[str, Any],
+        brush: str,
+        optimizer: Callable[..., torch.optim.Optimizer] = torch.optim.Adam,
+        scheduler: Optional[Callable[..., Any]] = None,
+        scheduler_interval: str = "epoch",
+    ):
+        super().__init__()
+        if scheduler_interval not in ("epoch", "step"):
+            raise ValueError(f"model.scheduler_interval must be 'epoch' or 'step', got '{scheduler_interval}'")
+        self.save_hyperparameters("renderer", "brush")
+        self.renderer = build(renderer, brush)
+        self.optimizer, self.scheduler, self.scheduler_interval = optimizer, scheduler, scheduler_interval
+        self.psnr_fg = PeakSignalNoiseRatio(data_range=1.0)
+        self.psnr_alpha = PeakSignalNoiseRatio(data_range=1.0)
+
+    def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:
+        """(B, d) -> foreground (B, 3, S, S), alpha (B, 1, S, S)."""
+        return self.renderer(x)
+
+    def loss(self, batch: tuple[Tensor, Tensor, Tensor]) -> tuple[Tensor, Tensor, Tensor]:
+        """The L2 loss, and the predicted foreground and alpha."""
+        x, fg, alpha = batch
+        fg_hat, alpha_hat = self(x)
+        return F.mse_loss(fg_hat, fg) + F.mse_loss(alpha_hat, alpha), fg_hat, alpha_hat
+
+    def training_step(self, batch, batch_idx: int) -> Tensor:
+        loss, _, _ = self.loss(batch)
+        self.log("train/loss", loss, prog_bar=True)
+        return loss
+
+    def validation_step(self, batch, batch_idx: int) -> None:
+        loss, fg_hat, alpha_hat = self.loss(batch)
+        _, fg, alpha = batch
+        self.psnr_fg.update(fg_hat, fg)
+        self.psnr_alpha.update(alpha_hat, alpha)
+        self.log("val/loss", loss, sync_dist=True)
+        if batch_idx == 0:
+            self.preview = [t[:PREVIEW] for t in (fg, fg_hat, alpha, alpha_hat)]
+
+    def on_validation_epoch_end(self) -> None:
+        psnr_fg, psnr_alpha = self.psnr_fg.compute(), self.psnr_alpha.compute()
+        self.psnr_fg.reset()
+        self.psnr_alpha.reset()
+        self.log_dict(
+            {"val/psnr_fg": psnr_fg, "val/psnr_alpha": psnr_alpha, "val/psnr": (psnr_fg + psnr_alpha) / 2},
+            prog_bar=True,
+            sync_dist=True,
+        )
+        if isinstance(self.logger, TensorBoardLogger) and self.trainer.is_global_zero:
+            # Rows: true foreground, predicted foreground, true alpha, predicted alpha.
+            rows = [t.expand(-1, 3, -1, -1) for t in self.preview]
+            grid = make_grid(torch.cat(rows).clamp(0, 1), nrow=len(rows[0]), padding=1, pad_value=0.5)
+            self.logger.experiment.add_image("val/strokes", grid, self.global_step)
+
+    def configure_optimizers(self):
+        optimizer = self.optimizer(self.parameters())
+        if self.scheduler is None:
+            return optimizer
+        scheduler = {"scheduler": self.scheduler(optimizer), "interval": self.scheduler_interval}
+        return {"optimizer": optimizer, "lr_scheduler": scheduler}

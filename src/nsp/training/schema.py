@@ -1,0 +1,134 @@
+"""Structured-config schemas of ``python -m nsp.train``, registered in Hydra's ConfigStore.
+
+Typed fields make a bad value fail at compose time naming its key (``trainer.max_epochs=abc``);
+:func:`misspelt_key` adds the "Did you mean" that Hydra does not give for a misspelt key.
+"""
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
+from hydra.core.config_store import ConfigStore
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import OverrideParseException
+from omegaconf import MISSING, OmegaConf
+
+import nsp.config  # noqa: F401  (registers the ``brush`` group)
+from nsp.config import BrushConfig
+
+@dataclass
+class RendererConfig:
+    _target_: str = MISSING
+    size: int = "${model.size}"  # type: ignore[assignment]
+    width: float = "${model.width}"  # type: ignore[assignment]
+
+
+@dataclass
+class DualConfig(RendererConfig):
+    _target_: str = "nsp.renderers.DualPathway"
+    pathways: list[str] = field(default_factory=lambda: ["rasterization", "shading"])
+
+
+@dataclass
+class DataConfig:
+    batch_size: int = 64
+    epoch_size: int = 50_000  # fresh random strokes per epoch (the paper's)
+    val_size: int = 1024  # fixed, seeded validation strokes
+    val_seed: int = 0  # the validation set does not move with ``seed``, so runs compare
+    num_workers: int = 0
+
+
+@dataclass
+class ModelConfig:
+    size: int = 128  # output side S: 32, 64 or 128
+    width: float = 1.0  # channel-width multiplier; 1 = the paper's layers
+    optimizer: Any = field(
+        default_factory=lambda: {
+            "_target_": "torch.optim.Adam",
+            "_partial_": True,
+            "lr": 2e-4,
+            "betas": [0.9, 0.999],
+        }
+    )
+    scheduler: Any = None  # LRScheduler _partial_, from the ``schedule`` group
+    scheduler_interval: str = "epoch"  # when the scheduler steps: "epoch" or "step"
+
+
+@dataclass
+class TrainerConfig:
+    """The ``lightning.pytorch.Trainer`` arguments nsp sets; add others with ``+trainer.key=value``."""
+
+    _target_: str = "lightning.pytorch.Trainer"
+    accelerator: str = "cpu"
+    devices: Any = 1
+    num_nodes: int = 1
+    strategy: str = "auto"
+    precision: Any = "32-true"
+    max_epochs: Optional[int] = None
+    max_steps: int = -1
+    max_time: Optional[str] = None  # "DD:HH:MM:SS"
+    val_check_interval: Any = None
+    check_val_every_n_epoch: Optional[int] = 1
+    limit_train_batches: Any = None
+    limit_val_batches: Any = None
+    num_sanity_val_steps: int = 2
+    log_every_n_steps: int = 50
+    gradient_clip_val: Optional[float] = None
+    deterministic: Any = False
+    benchmark: Optional[bool] = None
+    sync_batchnorm: bool = False
+    use_distributed_sampler: bool = True
+    enable_progress_bar: bool = True
+
+
+@dataclass
+class TrainConfig:
+    renderer: RendererConfig = MISSING
+    brush: BrushConfig = MISSING
+    data: DataConfig = field(default_factory=DataConfig)
+    model: ModelConfig = field(default_factory=ModelConfig)
+    trainer: TrainerConfig = field(default_factory=TrainerConfig)
+    seed: int = 0  # model initialisation and the training strokes
+    ckpt_path: Optional[str] = None  # resume from this checkpoint
+    output_dir: str = "${hydra:runtime.output_dir}"
+
+
+def register_configs() -> None:
+    cs = ConfigStore.instance()
+    cs.store(name="train_schema", node=TrainConfig)
+    cs.store(group="schema/renderer", name="base", node=RendererConfig)
+    cs.store(group="schema/renderer", name="dual", node=DualConfig)
+    cs.store(group="schema/trainer", name="base", node=TrainerConfig)
+
+
+def misspelt_key(argv: list[str]) -> Optional[str]:
+    """A one-line "Did you mean" message for the first override in a command line whose key is a near
+    miss, else None.
+
+    Only plain ``key=value`` overrides are checked (``+``/``++``/``~`` deliberately add or remove keys);
+    anything else wrong is left to Hydra's own messages.
+    """
+    try:
+        overrides = OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
+    except OverrideParseException:
+        return None
+    # Every key any composition can have: the dual renderer's keys are a superset of the others'.
+    tree = OmegaConf.to_container(OmegaConf.structured(TrainConfig(renderer=DualConfig(), brush=BrushConfig(MISSING))))
+    for override in overrides:
+        key = override.key_or_group
+        if override.is_add() or override.is_force_add() or override.is_delete() or key.split(".")[0] == "hydra":
+            continue
+        node = tree
+        for depth, part in enumerate(key.split(".")):
+            if not isinstance(node, dict):
+                break
+            if part not in node:
+                close = difflib.get_close_matches(part, list(node), n=1)
+                if not close:
+                    break
+                where = ".".join(key.split(".")[:depth] + [close[0]])
+                return f"Could not override '{key}': no such key. Did you mean '{where}'?"
+            node = node[part]
+    return None

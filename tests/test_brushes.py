@@ -1,0 +1,110 @@
+"""Each brush lights the pixels its parameters name, in the colours and alpha they name."""
+import math
+
+import pytest
+import torch
+
+from nsp.brushes import BRUSHES, get_brush
+from nsp.engine import render
+
+S = 64
+
+
+def grid(size=S):
+    """Pixel coordinates (y, x), each (S, S)."""
+    return torch.meshgrid(torch.arange(size, dtype=torch.float32), torch.arange(size, dtype=torch.float32), indexing="ij")
+
+
+def one(brush, **values):
+    spec = get_brush(brush)
+    x = torch.tensor([[values[name] for name in spec.params]], dtype=torch.float32)
+    fg, alpha = render(spec, x, S)
+    return fg[0], alpha[0, 0]
+
+
+def test_tape_lights_its_rotated_rectangle_only():
+    # Centre (0.25, 0.75) of a 64-px canvas is pixel (15.75, 47.25); w = 0.5 -> 32 px, h = 0.25 -> 16 px.
+    fg, alpha = one("tape", x=0.25, y=0.75, w=0.5, h=0.25, theta=0.25, R=0.2, G=0.4, B=0.6)
+    yy, xx = grid()
+    c, s = math.cos(math.pi / 4), math.sin(math.pi / 4)
+    along = (xx - 15.75) * c + (yy - 47.25) * s
+    across = -(xx - 15.75) * s + (yy - 47.25) * c
+    inside = (along.abs() <= 16 - 0.75) & (across.abs() <= 8 - 0.75)
+    outside = (along.abs() >= 16 + 0.75) | (across.abs() >= 8 + 0.75)
+    assert inside.sum() > 300
+    assert torch.all(alpha[inside] == 1) and torch.all(alpha[outside] == 0)
+    assert torch.allclose(fg[:, inside], torch.tensor([0.2, 0.4, 0.6])[:, None])
+    assert torch.all(fg[:, outside] == 0)
+
+
+def test_watercolor_is_a_swept_disc_with_interpolated_radius_colour_and_alpha():
+    # Straight horizontal stroke at y = 0.5 from x = 0.2 to 0.8; radius 4 px at P0 and 12 px at P2.
+    fg, alpha = one(
+        "watercolor", x0=0.2, y0=0.5, x1=0.5, y1=0.5, x2=0.8, y2=0.5, r0=0.25, r2=0.75,
+        R0=1.0, G0=0.0, B0=0.0, R2=0.0, G2=0.0, B2=1.0, A=0.6,
+    )
+    yy, xx = grid()
+    cy, xa, xb = 0.5 * 63, 0.2 * 63, 0.8 * 63
+    t = ((xx - xa) / (xb - xa)).clamp(0, 1)
+    radius = 4 + 8 * t
+    dist = torch.sqrt((xx - (xa + t * (xb - xa))) ** 2 + (yy - cy) ** 2)
+    inside, outside = dist <= radius - 1.5, dist >= radius + 1.5
+    assert torch.allclose(alpha[inside], torch.tensor(0.6))
+    assert torch.all(alpha[outside] == 0)
+    row = int(round(cy))
+    assert fg[0, row, int(xa)] > 0.95 and fg[2, row, int(xa)] < 0.05  # C0 = red at P0
+    assert fg[2, row, int(xb)] > 0.95 and fg[0, row, int(xb)] < 0.05  # C2 = blue at P2
+
+
+def test_markerpen_has_square_tips_and_constant_thickness():
+    fg, alpha = one("markerpen", x0=0.2, y0=0.5, x1=0.5, y1=0.5, x2=0.8, y2=0.5, d=0.5, R=0.0, G=1.0, B=0.0, A=1.0)
+    cy, xa, xb, d = 31.5, 0.2 * 63, 0.8 * 63, 8.0
+    # The flat tip covers the corners of the square cap, which a round tip would leave empty.
+    assert alpha[round(cy - d + 2), round(xa - d + 2)] == 1
+    assert alpha[round(cy + d - 2), round(xb + d - 2)] == 1
+    yy, xx = grid()
+    outside = ((yy - cy).abs() >= d + 1) | (xx <= xa - d - 1) | (xx >= xb + d + 1)
+    assert torch.all(alpha[outside] == 0)
+    assert torch.all(fg[1][alpha > 0] == 1)
+
+
+def test_bezier_control_point_bends_the_stroke():
+    _, straight = one("markerpen", x0=0.1, y0=0.5, x1=0.5, y1=0.5, x2=0.9, y2=0.5, d=0.1, R=1, G=1, B=1, A=1)
+    _, bent = one("markerpen", x0=0.1, y0=0.5, x1=0.5, y1=0.1, x2=0.9, y2=0.5, d=0.1, R=1, G=1, B=1, A=1)
+    # B(0.5) = (P0 + 2 P1 + P2) / 4 -> y = 0.3 of the canvas: the bent stroke passes there, the straight one doesn't.
+    assert bent[round(0.3 * 63), 32] == 1 and straight[round(0.3 * 63), 32] == 0
+    assert straight[32, 32] == 1 and bent[32, 32] == 0
+
+
+def test_oilpaint_is_opaque_textured_and_blends_head_to_tail():
+    fg, alpha = one("oilpaint", x=0.5, y=0.5, w=0.8, h=0.3, theta=0.0, R0=1, G0=0, B0=0, R2=0, G2=0, B2=1)
+    yy, xx = grid()
+    outside = ((xx - 31.5).abs() >= 0.4 * 64 + 1) | ((yy - 31.5).abs() >= 0.15 * 64 + 1)
+    assert torch.all(alpha[outside] == 0)
+    assert alpha[32, 32] == 1  # opaque in the middle of the bristles
+    head, tail = fg[:, 32, 16], fg[:, 32, 47]
+    assert head[0] > 0.6 and head[2] < 0.3 and tail[2] > 0.6 and tail[0] < 0.3
+    assert alpha[16:48, 8:56].std() > 0.05  # the texture is visible, not a flat rectangle
+
+
+def test_oil_texture_can_be_a_users_image(tmp_path):
+    from PIL import Image
+
+    Image.new("L", (32, 8), 0).save(tmp_path / "empty.png")
+    brush = get_brush("oilpaint", texture=str(tmp_path / "empty.png"))
+    _, alpha = render(brush, torch.tensor([[0.5, 0.5, 0.8, 0.3, 0, 1, 0, 0, 0, 0, 1.0]]), S)
+    assert alpha.max() == 0  # a black texture carries no paint
+
+
+def test_unknown_brush_lists_the_valid_ones():
+    with pytest.raises(ValueError, match="unknown brush 'oil'.*oilpaint, watercolor, markerpen, tape"):
+        get_brush("oil")
+
+
+@pytest.mark.parametrize("name", list(BRUSHES))
+def test_validate_names_the_bad_parameters(name):
+    brush = BRUSHES[name]
+    with pytest.raises(ValueError, match=f"{brush.d} parameters"):
+        brush.validate(torch.zeros(3, brush.d + 1))
+    with pytest.raises(ValueError, match=r"\[0, 1\], got 1.5"):
+        brush.validate(torch.full((2, brush.d), 1.5))

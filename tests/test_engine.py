@@ -1,0 +1,104 @@
+"""The vector engine: batching, resolution independence, range, determinism, soft-mode gradients."""
+import pytest
+import torch
+import torch.nn.functional as F
+
+from nsp.brushes import BRUSHES
+from nsp.engine import composite, paint_canvas, render
+
+NAMES = list(BRUSHES)
+
+
+def moderate(brush, n, generator):
+    """Random strokes with sizes up to a third of the range, so several fit on a canvas."""
+    x = brush.sample(n, generator)
+    sizes = [i for i, k in enumerate(brush.kinds) if k == "size"]
+    x[:, sizes] *= 0.35
+    return x
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_batch_of_n_equals_n_single_renders(name, generator):
+    brush = BRUSHES[name]
+    x = moderate(brush, 6, generator)
+    fg, alpha = render(brush, x, 40, 56)
+    for i in range(len(x)):
+        f1, a1 = render(brush, x[i : i + 1], 40, 56)
+        assert torch.allclose(fg[i], f1[0], atol=1e-6) and torch.allclose(alpha[i], a1[0], atol=1e-6)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_64_and_512_px_agree_after_downsampling(name, generator):
+    brush = BRUSHES[name]
+    x = moderate(brush, 8, generator)
+    small = paint_canvas(brush, x, 64, 64, "white")
+    large = F.avg_pool2d(paint_canvas(brush, x, 512, 512, "white")[None], 8)[0]
+    assert (small - large).abs().mean() < 0.02
+    psnr = -10 * torch.log10(((small - large) ** 2).mean())
+    assert psnr > 25
+
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("softness", [None, 1.0])
+def test_outputs_stay_in_unit_range(name, softness, generator):
+    fg, alpha = render(BRUSHES[name], BRUSHES[name].sample(32, generator), 48, softness=softness)
+    assert fg.shape == (32, 3, 48, 48) and alpha.shape == (32, 1, 48, 48)
+    assert fg.min() >= 0 and fg.max() <= 1 and alpha.min() >= 0 and alpha.max() <= 1
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_same_seed_same_pixels(name):
+    brush = BRUSHES[name]
+    a = render(brush, brush.sample(16, torch.Generator().manual_seed(7)), 32)
+    b = render(brush, brush.sample(16, torch.Generator().manual_seed(7)), 32)
+    c = render(brush, brush.sample(16, torch.Generator().manual_seed(8)), 32)
+    assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1]) and not torch.equal(a[1], c[1])
+
+
+def test_empty_batch_and_far_away_strokes_render_empty():
+    brush = BRUSHES["tape"]
+    fg, alpha = render(brush, torch.zeros(0, brush.d), 16)
+    assert fg.shape == (0, 3, 16, 16)
+    _, alpha = render(brush, torch.tensor([[0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0]]), 16)
+    assert alpha.sum() <= 0.5  # a zero-size stroke in the corner covers (almost) nothing
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_soft_mode_gradients_match_finite_differences(name, generator):
+    brush = BRUSHES[name]
+    x = moderate(brush, 3, generator).double().clamp(0.15, 0.85)
+    weights = torch.rand(3, 4, 24, 24, generator=generator, dtype=torch.float64)
+
+    def loss(params):
+        fg, alpha = render(brush, params, 24, softness=1.5)
+        return (torch.cat([alpha * fg, alpha], 1) * weights).sum()  # what compositing sees
+
+    x.requires_grad_(True)
+    (grad,) = torch.autograd.grad(loss(x), x)
+    assert torch.all(grad.abs().sum(0) > 0), "every parameter gets a gradient"
+    eps = 1e-5
+    for _ in range(6):
+        direction = torch.randn(x.shape, generator=generator, dtype=torch.float64)
+        numeric = (loss(x + eps * direction) - loss(x - eps * direction)) / (2 * eps)
+        assert torch.allclose((grad * direction).sum(), numeric, rtol=2e-3, atol=1e-4)
+
+
+def test_composite_equals_stroke_by_stroke_blending(generator):
+    fg, alpha = torch.rand(5, 3, 8, 8, generator=generator), torch.rand(5, 1, 8, 8, generator=generator)
+    canvas = torch.rand(3, 8, 8, generator=generator)
+    h = canvas
+    for s, a in zip(fg, alpha):
+        h = a * s + (1 - a) * h
+    assert torch.allclose(composite(fg, alpha, canvas), h, atol=1e-6)
+
+
+def test_paint_canvas_keeps_the_aspect_ratio_and_background(generator):
+    brush = BRUSHES["tape"]
+    x = torch.tensor([[0.25, 0.5, 0.1, 0.1, 0.0, 1.0, 0.0, 0.0]])
+    image = paint_canvas(brush, x, 30, 90, "#00ff00")
+    assert image.shape == (3, 30, 90)
+    assert torch.equal(image[:, 0, 0], torch.tensor([0.0, 1.0, 0.0]))
+    red = (image[0] == 1) & (image[1] == 0)
+    ys, xs = red.nonzero(as_tuple=True)
+    # Positions scale with each side: x = 0.25 -> pixel 22.25 of 90, y = 0.5 -> 14.5 of 30.
+    assert abs(xs.float().mean() - 22.25) < 0.6 and abs(ys.float().mean() - 14.5) < 0.6

@@ -1,0 +1,102 @@
+"""nsp's JSON stroke files round-trip exactly; reference .npz files import with their geometry."""
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from nsp.brushes import BRUSHES
+from nsp.engine import render
+from nsp.io.strokes import StrokeFile, StrokeFileError, load_strokes, save_strokes
+
+
+@pytest.mark.parametrize("name", list(BRUSHES))
+def test_json_round_trip_is_exact(name, tmp_path, generator):
+    painting = StrokeFile(name, BRUSHES[name].sample(20, generator), 640, 480, "#102030")
+    save_strokes(tmp_path / "p.json", painting)
+    back = load_strokes(tmp_path / "p.json")
+    assert back.brush == name and (back.width, back.height, back.background) == (640, 480, "#102030")
+    assert torch.equal(back.strokes, painting.strokes)
+    data = json.loads((tmp_path / "p.json").read_text())
+    assert data["version"] == 1 and data["canvas"]["aspect"] == pytest.approx(4 / 3)
+    assert list(data["strokes"][0]) == list(BRUSHES[name].params)  # each stroke's named parameters
+
+
+def test_size_keeps_the_aspect_ratio():
+    assert StrokeFile("tape", torch.zeros(0, 8), 640, 480).size(1024) == (768, 1024)
+
+
+def npz(path, ctt, color, alpha):
+    np.savez(path, x_ctt=np.asarray(ctt)[None], x_color=np.asarray(color)[None], x_alpha=np.asarray(alpha)[None])
+    return path
+
+
+def test_reference_watercolor_control_point_is_relative_and_radii_in_pixels(tmp_path):
+    # P0 = (0.2, 0.2), P2 = (0.8, 0.8); relative P1 = (1, 0) -> absolute (0.8, 0.2); radius 1 + 0.25·W/4.
+    path = npz(tmp_path / "w.npz", [[0.2, 0.2, 1.0, 0.0, 0.8, 0.8, 0.25, 0.25]], [[1, 0, 0, 0, 0, 1]], [[0.5]])
+    painting = load_strokes(path, brush="watercolor", size=128)
+    x = painting.strokes[0]
+    assert torch.allclose(x[:6], torch.tensor([0.2, 0.2, 0.8, 0.2, 0.8, 0.8]))
+    assert torch.allclose(x[6:8] * 128 / 4, torch.tensor([1 + 0.25 * 32] * 2))
+    assert torch.allclose(x[8:], torch.tensor([1.0, 0, 0, 0, 0, 1, 0.5]))
+    _, alpha = render(BRUSHES["watercolor"], painting.strokes, 128)
+    # The curve passes B(0.5) = (P0 + 2 P1 + P2)/4 = (0.65, 0.35), well off the straight diagonal.
+    assert alpha[0, 0, round(0.35 * 127), round(0.65 * 127)] == 0.5
+    assert alpha[0, 0, 64, 64] == 0
+
+
+def test_reference_markerpen_drops_its_unused_second_radius(tmp_path):
+    path = npz(tmp_path / "m.npz", [[0.1, 0.5, 0.5, 0.5, 0.9, 0.5, 0.1, 0.9]], [[0, 1, 0]], [[1.0]])
+    x = load_strokes(path, brush="markerpen", size=64).strokes[0]
+    assert x.shape == (11,) and x[6] * 64 / 4 == pytest.approx(1 + 0.1 * 16)
+    assert torch.allclose(x[7:], torch.tensor([0.0, 1, 0, 1]))
+
+
+def test_reference_rectangle_is_tape_with_half_extents(tmp_path):
+    path = npz(tmp_path / "t.npz", [[0.5, 0.5, 0.5, 0.25, 0.0]], [[0.2, 0.4, 0.6]], [[0.3]])
+    painting = load_strokes(path, brush="tape", size=128)
+    _, alpha = render(BRUSHES["tape"], painting.strokes, 128)
+    cols = (alpha[0, 0] > 0.5).sum(0).nonzero().flatten()
+    rows = (alpha[0, 0] > 0.5).sum(1).nonzero().flatten()
+    # Half extents 1 + w·W/4 = 17 px and 1 + h·W/4 = 9 px around pixel 63.5 (alpha ignored: opaque).
+    assert cols.max() - cols.min() + 1 == pytest.approx(34, abs=1)
+    assert rows.max() - rows.min() + 1 == pytest.approx(18, abs=1)
+    assert alpha.max() == 1
+
+
+def test_reference_oil_sizes(tmp_path):
+    path = npz(tmp_path / "o.npz", [[0.5, 0.5, 0.5, 0.2, 0.0]], [[1, 0, 0, 0, 0, 1]], [[1.0]])
+    x = load_strokes(path, brush="oilpaint", size=100).strokes[0]
+    assert x[2] == pytest.approx((1 + 0.5 * 100) / 100) and x[3] == pytest.approx((1 + 0.2 * 100) / 100)
+
+
+@pytest.mark.parametrize(
+    "content, match",
+    [
+        ("{not json", "not valid JSON"),
+        ('{"format": "other"}', "not an nsp stroke file"),
+        ('{"format": "nsp-strokes", "version": 9}', "version 9"),
+        ('{"format": "nsp-strokes", "version": 1, "brush": "oil"}', "unknown brush 'oil'"),
+        ('{"format": "nsp-strokes", "version": 1, "brush": "tape", "strokes": [{"x": 1}]}', "malformed"),
+    ],
+)
+def test_malformed_files_name_the_problem(tmp_path, content, match):
+    (tmp_path / "bad.json").write_text(content)
+    with pytest.raises(ValueError, match=match):
+        load_strokes(tmp_path / "bad.json")
+
+
+def test_out_of_range_parameters_are_refused(tmp_path, generator):
+    painting = StrokeFile("tape", BRUSHES["tape"].sample(2, generator))
+    painting.strokes[1, 3] = 1.25
+    save_strokes(tmp_path / "p.json", painting)
+    with pytest.raises(ValueError, match=r"\[0, 1\], got 1.25"):
+        load_strokes(tmp_path / "p.json")
+
+
+def test_npz_needs_a_brush_and_matching_arrays(tmp_path):
+    path = npz(tmp_path / "t.npz", [[0.5, 0.5, 0.5, 0.25, 0.0]], [[0.2, 0.4, 0.6]], [[0.3]])
+    with pytest.raises(StrokeFileError, match="brush="):
+        load_strokes(path)
+    with pytest.raises(StrokeFileError, match=r"do not fit brush=watercolor.*\[1, N, 8\]"):
+        load_strokes(path, brush="watercolor")

@@ -1,0 +1,193 @@
+"""Style transfer building blocks (issue 5, paper §3.6): feature networks, Gram and colour losses."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+import torch.nn.functional as F
+from PIL import Image
+from skimage import data
+from torchvision.models.vgg import cfgs, make_layers
+
+from nsp.brushes import get_brush
+from nsp.engine import paint_canvas
+from nsp.style import (
+    StyleLoss,
+    WeightsNotFound,
+    gram,
+    hub_cache_path,
+    load_style_image,
+    random_features,
+    sliced_wasserstein,
+    style_loss,
+    vgg19_features,
+)
+
+S = 48  # canvas side in pixels: small, so optimization tests stay fast on a CPU
+
+
+def texture(image: np.ndarray, tint=(1.0, 1.0, 1.0)) -> torch.Tensor:
+    """An skimage grayscale texture as a tinted RGB style image (1, 3, S, S)."""
+    gray = torch.from_numpy(image[:192, :192].astype(np.float32) / 255)[None, None]
+    return F.interpolate(gray, size=(S, S), mode="area") * torch.tensor(tint)[None, :, None, None]
+
+
+@pytest.fixture(scope="module")
+def astronaut() -> torch.Tensor:
+    """The astronaut's face, (3, S, S)."""
+    crop = data.astronaut()[30:222:4, 140:332:4].astype(np.float32) / 255
+    return torch.from_numpy(crop).permute(2, 0, 1).contiguous()
+
+
+@pytest.fixture(scope="module")
+def fake_vgg() -> torch.nn.Sequential:
+    """torchvision's VGG-19 ``features`` up to conv 7 with random weights: a stand-in for ImageNet's."""
+    return make_layers(cfgs["E"])[:16].eval()
+
+
+def reference_taps(features: torch.nn.Sequential, images: torch.Tensor) -> list[torch.Tensor]:
+    """relu1_2, relu2_2, relu3_3 (after convs 2, 4, 7) computed directly, with ImageNet normalization."""
+    mean = torch.tensor([0.485, 0.456, 0.406])[:, None, None]
+    std = torch.tensor([0.229, 0.224, 0.225])[:, None, None]
+    x, out = (images - mean) / std, []
+    for i, layer in enumerate(features):
+        x = layer(x)
+        if i in (3, 8, 15):
+            out.append(x.clone())
+    return out
+
+
+@pytest.mark.parametrize("layout", ["full model", "features only"])
+def test_vgg19_loads_a_saved_state_dict(tmp_path, fake_vgg, layout):
+    state = fake_vgg.state_dict()
+    if layout == "full model":  # as torchvision's vgg19().state_dict() names them; classifier ignored
+        state = {f"features.{k}": v for k, v in state.items()} | {"classifier.6.bias": torch.zeros(1000)}
+    torch.save(state, tmp_path / "vgg.pth")
+    net = vgg19_features(tmp_path / "vgg.pth")
+    images = torch.rand(2, 3, 32, 32, generator=torch.Generator().manual_seed(0))
+    with torch.no_grad():
+        got, want = net(images), reference_taps(fake_vgg, images)
+    assert [tuple(f.shape) for f in got] == [(2, 64, 32, 32), (2, 128, 16, 16), (2, 256, 8, 8)]
+    for g, w in zip(got, want):
+        torch.testing.assert_close(g, w)
+    assert not any(p.requires_grad for p in net.parameters())
+
+
+def test_vgg19_reads_the_torch_hub_cache(tmp_path, monkeypatch, fake_vgg):
+    monkeypatch.setattr(torch.hub, "get_dir", lambda: str(tmp_path))
+    assert hub_cache_path() == tmp_path / "checkpoints" / "vgg19-dcbb9e9d.pth"
+    hub_cache_path().parent.mkdir()
+    torch.save(fake_vgg.state_dict(), hub_cache_path())
+    style = torch.rand(1, 3, 32, 32, generator=torch.Generator().manual_seed(0))
+    loss = StyleLoss(style, backbone="vgg19")
+    assert loss(style).item() == pytest.approx(0.0, abs=1e-6)
+    assert loss(F.avg_pool2d(style, 5, 1, 2)).item() > 0.01  # blurred: another texture
+
+
+def test_missing_vgg19_weights_give_one_clear_error(tmp_path, monkeypatch):
+    monkeypatch.setattr(torch.hub, "get_dir", lambda: str(tmp_path / "empty"))
+    with pytest.raises(WeightsNotFound) as err:
+        StyleLoss(torch.rand(1, 3, 16, 16), backbone="vgg19")
+    message = str(err.value)
+    assert "\n" not in message
+    for part in (str(hub_cache_path()), "IMAGENET1K_V1", "style.weights=PATH", "style.backbone=random"):
+        assert part in message
+    with pytest.raises(FileNotFoundError, match="nowhere.pth"):
+        vgg19_features(tmp_path / "nowhere.pth")
+
+
+def test_unknown_backbone_lists_the_choices():
+    with pytest.raises(ValueError, match="vgg19, random"):
+        StyleLoss(torch.rand(1, 3, 16, 16), backbone="resnet")
+
+
+def test_random_backbone_is_deterministic_from_the_seed():
+    images = torch.rand(1, 3, 32, 32, generator=torch.Generator().manual_seed(0))
+    a, b, c = random_features(7)(images), random_features(7)(images), random_features(8)(images)
+    assert all(torch.equal(x, y) for x, y in zip(a, b))
+    assert not any(torch.equal(x, z) for x, z in zip(a, c))
+    assert [tuple(f.shape[2:]) for f in a] == [(32, 32), (16, 16), (8, 8)]
+    assert list(random_features(7).parameters()) == []  # frozen: filters are buffers
+
+    canvas = torch.rand(1, 3, 32, 32, generator=torch.Generator().manual_seed(1))
+    loss = lambda seed: StyleLoss(images, "random", seed=seed, color_weight=1.0)(canvas)  # noqa: E731
+    assert torch.equal(loss(3), loss(3))
+    assert not torch.equal(loss(3), loss(4))
+
+
+def test_style_loss_is_zero_for_the_same_image_and_positive_otherwise(astronaut):
+    net = random_features(0)
+    brick = texture(data.brick())
+    feats_a, feats_b = net(astronaut[None]), net(brick)
+    g = gram(feats_a[0])
+    assert g.shape == (1, 128, 128) and torch.allclose(g, g.transpose(1, 2))
+    assert style_loss(feats_a, feats_a).item() == 0.0
+    assert 0.1 < style_loss(feats_a, feats_b).item() <= 1.0
+    big_brick = net(F.interpolate(brick, scale_factor=2))  # Grams compare images of any size
+    assert style_loss(feats_b, big_brick).item() < style_loss(feats_a, big_brick).item()
+
+
+def test_sliced_wasserstein_compares_colour_distributions(astronaut):
+    g = torch.Generator().manual_seed(0)
+    shuffled = astronaut.flatten(1)[:, torch.randperm(S * S, generator=g)].reshape(1, 3, S, S)
+    assert sliced_wasserstein(astronaut[None], shuffled, generator=g).item() < 1e-6
+    canvas = astronaut[None].clone().requires_grad_(True)
+    gray = texture(data.grass(), tint=(1.0, 1.0, 1.0))[..., :20, :30]  # another size: quantile-matched
+    distance = sliced_wasserstein(canvas, gray, generator=g)
+    distance.backward()
+    assert distance.item() > 0.05 and canvas.grad.abs().sum() > 0
+
+
+def test_style_loss_falls_while_strokes_are_optimized():
+    brush = get_brush("tape")
+    strokes = brush.sample(24, torch.Generator().manual_seed(0))
+    logits = torch.logit(strokes.clamp(0.02, 0.98)).requires_grad_(True)  # keeps parameters in (0, 1)
+    loss_fn = StyleLoss(texture(data.brick()), backbone="random", seed=0)
+    optimizer = torch.optim.Adam([logits], lr=0.05)
+    history = []
+    for _ in range(30):
+        loss = loss_fn(paint_canvas(brush, torch.sigmoid(logits), S, S, softness=1.0))
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        history.append(loss.item())
+    assert history[-1] < 0.6 * history[0]
+
+
+def test_color_mode_keeps_shapes_and_moves_colours_toward_the_style(astronaut):
+    brush = get_brush("oilpaint")
+    strokes = brush.sample(40, torch.Generator().manual_seed(0))
+    strokes[:, 2:4] = 0.3 + 0.2 * strokes[:, 2:4]  # w, h: strokes that cover most of the canvas
+    color = torch.tensor(brush.color)
+    at = astronaut[:, (strokes[:, 1] * (S - 1)).round().long(), (strokes[:, 0] * (S - 1)).round().long()]
+    strokes[:, color] = at.T.repeat(1, 2)  # a painting of the photo: each stroke its pixel's colour
+    unstyled = paint_canvas(brush, strokes, S, S, softness=1.0)
+
+    grass = texture(data.grass(), tint=(0.35, 0.85, 0.3))
+    style = StyleLoss(grass, backbone="random", seed=0, color_weight=2.0)
+    colors = strokes[:, color].clone().requires_grad_(True)  # colour mode: only these are optimized
+    optimizer = torch.optim.Adam([colors], lr=0.05)
+    for _ in range(30):
+        styled = strokes.index_copy(1, color, colors.clamp(0, 1))
+        canvas = paint_canvas(brush, styled, S, S, softness=1.0)
+        loss = (canvas - astronaut).abs().mean() + 0.5 * style(canvas)
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+
+    shape = torch.tensor(brush.shape)
+    assert torch.equal(styled[:, shape], strokes[:, shape])
+    distance = lambda image: sliced_wasserstein(image[None], grass, 256, torch.Generator().manual_seed(1))  # noqa: E731
+    assert distance(canvas.detach()) < 0.5 * distance(unstyled)
+    green = lambda image: (image[1] / image.sum(0)).mean()  # noqa: E731
+    assert green(canvas.detach()) > green(unstyled) + 0.05
+
+
+def test_load_style_image(tmp_path):
+    Image.fromarray(np.zeros((20, 40, 3), dtype=np.uint8)).save(tmp_path / "style.png")
+    image = load_style_image(tmp_path / "style.png", long_side=32)
+    assert image.shape == (1, 3, 16, 32) and image.dtype == torch.float32
+    (tmp_path / "notes.txt").write_text("not an image")
+    with pytest.raises(ValueError, match="notes.txt") as err:
+        load_style_image(tmp_path / "notes.txt", long_side=32)
+    assert "\n" not in str(err.value)
