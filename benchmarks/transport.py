@@ -65,19 +65,19 @@ def run(repeats: int) -> list[str]:
             with torch.no_grad() if name == "forward" else torch.enable_grad():
                 t_fast = best_ms(lambda: step(sinkhorn), repeats)
                 t_slow = best_ms(lambda: step(dense_sinkhorn), max(1, repeats // 4))
-            rows.append(
-                f"| {batch} | {name} | {t_fast:.1f} | {t_slow:.0f} | {t_slow / t_fast:.0f}× | {diff:.1e} |"
-            )
+            speedup = t_slow / t_fast
+            rows.append(f"| {batch} | {name} | {t_fast:.1f} | {t_slow:.0f} | {speedup:.0f}× | {diff:.1e} |")
     return rows
 
 
 def write_section(text: str) -> None:
     """Replace this benchmark's section of docs/benchmarks.md (or append it), keeping the rest."""
     doc = DOC.read_text() if DOC.exists() else "# Benchmarks\n"
+    text = text.rstrip("\n") + "\n\n"
     section = re.compile(rf"^{re.escape(HEADING)}\n.*?(?=^## |\Z)", re.S | re.M)
     doc = section.sub(lambda _: text, doc) if section.search(doc) else doc.rstrip("\n") + "\n\n" + text
     DOC.parent.mkdir(parents=True, exist_ok=True)
-    DOC.write_text(doc)
+    DOC.write_text(doc.rstrip("\n") + "\n")
 
 
 def main() -> None:
@@ -96,10 +96,11 @@ def main() -> None:
         [
             HEADING,
             "",
-            f"Sinkhorn transport cost at {GRID}×{GRID}, ε = {EPS}, {ITERS} iterations (paper settings):",
-            "`sinkhorn` (separable kernel, two 1-D log-sum-exp passes per half-iteration) vs",
-            "`dense_sinkhorn` (explicit (HW)×(HW) cost matrix), both in `nsp.painter.transport`.",
-            "Times are the best of several runs on a shared machine; rel. diff is |separable − dense| / dense.",
+            f"Sinkhorn transport cost at {GRID}×{GRID}, ε = {EPS}, {ITERS} iterations (paper",
+            "settings): `sinkhorn` (separable kernel, two 1-D log-sum-exp passes per half-iteration)",
+            "vs `dense_sinkhorn` (explicit (HW)×(HW) cost matrix), both in `nsp.painter.transport`.",
+            "Times are the best of several runs on a shared machine; rel. diff is",
+            "|separable − dense| / dense.",
             "",
             f"Command: `{command}`  ",
             f"Machine: {machine}",

@@ -102,3 +102,22 @@ def test_paint_canvas_keeps_the_aspect_ratio_and_background(generator):
     ys, xs = red.nonzero(as_tuple=True)
     # Positions scale with each side: x = 0.25 -> pixel 22.25 of 90, y = 0.5 -> 14.5 of 30.
     assert abs(xs.float().mean() - 22.25) < 0.6 and abs(ys.float().mean() - 14.5) < 0.6
+
+
+def test_closest_point_on_a_bezier_matches_dense_sampling(generator):
+    from nsp.engine.geometry import bezier_nearest
+
+    pts = torch.rand(64, 3, 2, generator=generator) * 100
+    pts[:8, 1] = (pts[:8, 0] + pts[:8, 2]) / 2  # straight strokes too
+    px = torch.rand(64, 50, generator=generator) * 140 - 20
+    py = torch.rand(64, 50, generator=generator) * 140 - 20
+    t = bezier_nearest(pts[:, 0], pts[:, 1], pts[:, 2], px, py)
+
+    def dist(t):
+        b = (1 - t)[..., None] ** 2 * pts[:, None, 0] + 2 * ((1 - t) * t)[..., None] * pts[:, None, 1]
+        b = b + (t * t)[..., None] * pts[:, None, 2]
+        return torch.sqrt((b[..., 0] - px) ** 2 + (b[..., 1] - py) ** 2)
+
+    dense = torch.linspace(0, 1, 20001)
+    best = torch.stack([dist(torch.full_like(px, s)) for s in dense[::50]]).amin(0)
+    assert torch.all(dist(t) <= best + 1e-2)

@@ -66,6 +66,10 @@ class Brush:
             raise ValueError(f"stroke parameters must lie in [0, 1], got {bad.flatten()[0].item():g}")
 
     # --- rendering: implemented by each brush -------------------------------------------------
+    def extent(self, x: Tensor, width: int, height: int) -> Tensor:
+        """Bounding boxes (P, 4) of strokes ``x`` (P, d) in pixels: x_min, y_min, x_max, y_max."""
+        raise NotImplementedError
+
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
         """A 1-Lipschitz lower bound (pixels) of the signed distance, for culling: (P, N)."""
         raise NotImplementedError

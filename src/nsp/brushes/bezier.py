@@ -8,14 +8,32 @@ from nsp.brushes.base import Pixels
 from nsp.engine.geometry import bezier_polyline, project_polyline, segments_for, to_pixels
 
 
-def trajectory(x: Tensor, pix: Pixels) -> Tensor:
-    """Polyline of the trajectory given by x[:, 0:6] = x0, y0, x1, y1, x2, y2: (P, K+1, 2) pixels."""
-    pts = torch.stack(to_pixels(x[:, 0:6:2], x[:, 1:6:2], pix.width, pix.height), -1)  # (P, 3, 2)
-    return bezier_polyline(pts[:, 0], pts[:, 1], pts[:, 2], segments_for(pix.width, pix.height))
+def control_points(x: Tensor, width: int, height: int) -> Tensor:
+    """P0, P1, P2 of x[:, 0:6] = x0, y0, x1, y1, x2, y2 in pixels: (P, 3, 2)."""
+    return torch.stack(to_pixels(x[:, 0:6:2], x[:, 1:6:2], width, height), -1)
 
 
-def distance(points: Tensor, pix: Pixels) -> Tensor:
-    """Distance from each pixel to the polyline: (P, N); 1-Lipschitz."""
-    along, perp, length, _ = project_polyline(points, pix.px, pix.py)
+def point(pts: Tensor, t: Tensor) -> tuple[Tensor, Tensor]:
+    """B(t) for control points (P, 3, 2) at parameters t (P, N): x, y each (P, N)."""
+    p0, p1, p2 = (pts[:, i, :, None] for i in range(3))
+    b = (1 - t)[:, None] ** 2 * p0 + 2 * ((1 - t) * t)[:, None] * p1 + (t * t)[:, None] * p2
+    return b[:, 0], b[:, 1]
+
+
+def extent(x: Tensor, reach: Tensor, width: int, height: int) -> Tensor:
+    """Boxes (P, 4) around the control polygon (which holds the curve), grown by ``reach`` (P,) px."""
+    pts = control_points(x, width, height)
+    return torch.cat([pts.amin(1) - reach[:, None], pts.amax(1) + reach[:, None]], 1)
+
+
+def distance_bound(x: Tensor, pix: Pixels) -> Tensor:
+    """A 1-Lipschitz lower bound of the distance from each pixel to the curve: (P, N).
+
+    Uses the polyline through B(k/K); a quadratic leaves its chords by at most |P0 − 2P1 + P2|/(4K²).
+    """
+    pts = control_points(x, pix.width, pix.height)
+    k = segments_for(pix.width, pix.height)
+    along, perp, length, _ = project_polyline(bezier_polyline(pts[:, 0], pts[:, 1], pts[:, 2], k), pix.px, pix.py)
     excess = torch.maximum(-along, along - length).clamp(min=0)
-    return torch.sqrt(perp**2 + excess**2 + 1e-8).amin(-1)
+    chord_error = (pts[:, 0] - 2 * pts[:, 1] + pts[:, 2]).norm(dim=1) / (4 * k * k)
+    return torch.sqrt(perp**2 + excess**2 + 1e-8).amin(-1) - chord_error[:, None]

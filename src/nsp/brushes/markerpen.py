@@ -7,31 +7,36 @@ from torch import Tensor
 
 from nsp.brushes import bezier
 from nsp.brushes.base import Brush, Pixels
-from nsp.engine.geometry import project_polyline
+from nsp.engine.geometry import bezier_nearest
+
+_SQRT2 = 1.4143  # the square tip's corners reach √2·d from the trajectory's ends
 
 
 class MarkerPen(Brush):
-    def half_width(self, x: Tensor, pix: Pixels) -> Tensor:
-        """Half thickness in pixels (d · W/4): (P,)."""
-        return x[:, 6] * pix.width / 4
+    def extent(self, x: Tensor, width: int, height: int) -> Tensor:
+        return bezier.extent(x, _SQRT2 * x[:, 6] * width / 4, width, height)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
-        # The square caps reach √2·d from the trajectory's ends.
-        return bezier.distance(bezier.trajectory(x, pix), pix) - 1.4143 * self.half_width(x, pix)[:, None]
+        return bezier.distance_bound(x, pix) - _SQRT2 * x[:, 6:7] * pix.width / 4
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
-        points = bezier.trajectory(x, pix)
-        along, perp, length, _ = project_polyline(points, pix.px, pix.py)
-        d = self.half_width(x, pix)[:, None, None]
-        before, after = -along, along - length
-        # Square caps: past either end of the trajectory the tip's square extends d further.
-        cap = torch.zeros_like(along, dtype=torch.bool)
-        cap[..., 0] = before[..., 0] > 0
-        cap[..., -1] |= after[..., -1] > 0
-        excess = torch.maximum(before, after).clamp(min=0)
-        round_sd = torch.sqrt(perp**2 + excess**2 + 1e-8) - d
-        cap_sd = torch.maximum(perp, excess) - d
-        sd = torch.where(cap, cap_sd, round_sd).amin(-1)
+        pts = bezier.control_points(x, pix.width, pix.height)
+        d = x[:, 6:7] * pix.width / 4  # half thickness in pixels
+        t = bezier_nearest(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py)
+        bx, by = bezier.point(pts, t)
+        qx, qy = pix.px - bx, pix.py - by
+        round_sd = torch.sqrt(qx * qx + qy * qy + 1e-8) - d
+        # Past either end, the square tip: Chebyshev distance in the frame of the end's tangent.
+        start, end = pts[:, 1] - pts[:, 0], pts[:, 2] - pts[:, 1]
+        chord = pts[:, 2] - pts[:, 0]
+        start = torch.where(start.norm(dim=1, keepdim=True) > 1e-6, start, chord)
+        end = torch.where(end.norm(dim=1, keepdim=True) > 1e-6, end, chord)
+        ux = torch.where(t <= 0, start[:, :1], end[:, :1])
+        uy = torch.where(t <= 0, start[:, 1:], end[:, 1:])
+        norm = torch.sqrt(ux * ux + uy * uy + 1e-12)
+        along, across = (qx * ux + qy * uy) / norm, (qy * ux - qx * uy) / norm
+        cap_sd = torch.maximum(along.abs(), across.abs()) - d
+        sd = torch.where((t <= 0) | (t >= 1), cap_sd, round_sd)
         cov = coverage(sd)
         fg = x[:, 7:10, None] * (cov > 0)[:, None]
         return fg, x[:, 10:11] * cov

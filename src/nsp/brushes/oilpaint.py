@@ -9,7 +9,7 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.tape import rectangle
+from nsp.brushes.tape import rectangle, rectangle_extent
 from nsp.brushes.texture import bristle_texture, load_texture
 from nsp.engine.geometry import box
 
@@ -37,6 +37,9 @@ class OilPaint(Brush):
                 tex = F.interpolate(tex, size=size, mode="area")
             self._cache[key] = tex
         return self._cache[key]
+
+    def extent(self, x: Tensor, width: int, height: int) -> Tensor:
+        return rectangle_extent(x, width, height)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
         return box(*rectangle(x, pix))

@@ -7,32 +7,25 @@ from torch import Tensor
 
 from nsp.brushes import bezier
 from nsp.brushes.base import Brush, Pixels
-from nsp.engine.geometry import project_polyline
+from nsp.engine.geometry import bezier_nearest
 
 
 class Watercolor(Brush):
-    def radii(self, x: Tensor, pix: Pixels) -> tuple[Tensor, Tensor]:
-        """Radii at P0 and P2 in pixels (r · W/4): (P,), (P,)."""
-        return x[:, 6] * pix.width / 4, x[:, 7] * pix.width / 4
+    def extent(self, x: Tensor, width: int, height: int) -> Tensor:
+        return bezier.extent(x, torch.maximum(x[:, 6], x[:, 7]) * width / 4, width, height)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
-        r0, r2 = self.radii(x, pix)
-        return bezier.distance(bezier.trajectory(x, pix), pix) - torch.maximum(r0, r2)[:, None]
+        return bezier.distance_bound(x, pix) - torch.maximum(x[:, 6], x[:, 7])[:, None] * pix.width / 4
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
-        points = bezier.trajectory(x, pix)
-        along, perp, length, s = project_polyline(points, pix.px, pix.py)
-        k = points.shape[1] - 1
-        t = (torch.arange(k, device=x.device, dtype=x.dtype) + s) / k  # (P, N, K)
-        r0, r2 = self.radii(x, pix)
-        radius = r0[:, None, None] + (r2 - r0)[:, None, None] * t
-        excess = torch.maximum(-along, along - length).clamp(min=0)
-        sd_k = torch.sqrt(perp**2 + excess**2 + 1e-8) - radius
-        sd, nearest = sd_k.min(-1)
-        t_near = t.gather(-1, nearest[..., None])[..., 0]  # (P, N)
-        c0, c2 = x[:, 8:11, None], x[:, 11:14, None]
+        pts = bezier.control_points(x, pix.width, pix.height)
+        r0, r2 = x[:, 6:7] * pix.width / 4, x[:, 7:8] * pix.width / 4  # radii in pixels
+        t = bezier_nearest(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, taper=(r2 - r0)[:, 0])
+        bx, by = bezier.point(pts, t)
+        sd = torch.sqrt((pix.px - bx) ** 2 + (pix.py - by) ** 2 + 1e-8) - (r0 + (r2 - r0) * t)
         cov = coverage(sd)
-        fg = (c0 + (c2 - c0) * t_near[:, None]) * (cov > 0)[:, None]
+        c0, c2 = x[:, 8:11, None], x[:, 11:14, None]
+        fg = (c0 + (c2 - c0) * t[:, None]) * (cov > 0)[:, None]
         return fg, x[:, 14:15] * cov
 
 

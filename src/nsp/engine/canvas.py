@@ -7,7 +7,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush
-from nsp.engine.raster import composite, render
+from nsp.engine.raster import composite_tiles, rasterize, to_tiles, untile
 
 _NAMED = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
 
@@ -32,19 +32,21 @@ def paint_canvas(
     background: str | tuple = "white",
     *,
     softness: float | None = None,
-    budget: int = 2**26,
     canvas: Tensor | None = None,
+    chunk: int = 256,
+    tile: int = 16,
 ) -> Tensor:
     """Composite ``strokes`` (N, d), in order, onto a canvas: (3, H, W) in [0, 1].
 
-    Strokes are rendered in chunks of at most ``budget`` floats so any size fits in memory.
+    Only the tiles each stroke touches are rendered and blended, ``chunk`` strokes at a time, so
+    a painting of thousands of strokes renders at any size in bounded memory.
     ``canvas`` (3, H, W), if given, replaces the plain ``background``.
     """
     if canvas is None:
         color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)
         canvas = color[:, None, None].expand(3, height, width)
-    chunk = max(1, budget // (8 * height * width))
+    tiled = to_tiles(canvas, tile)
     for start in range(0, strokes.shape[0], chunk):
-        fg, alpha = render(brush, strokes[start : start + chunk], height, width, softness=softness)
-        canvas = composite(fg, alpha, canvas)
-    return canvas
+        part = rasterize(brush, strokes[start : start + chunk], height, width, softness=softness, tile=tile)
+        tiled = composite_tiles(part, tiled)
+    return untile(tiled, height, width, tile)

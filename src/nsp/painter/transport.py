@@ -19,19 +19,36 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 from torch import Tensor
+from torch.autograd.function import once_differentiable
 
 _FLOOR = 1e-9  # per-pixel mass added before normalizing, so an empty image is a uniform one
 _TAIL = -80.0  # log-ratio below which a term is raised: exp(-80) is still a normal float32
 
 
-def _lse(x: Tensor, dim: int) -> Tensor:
-    """torch.logsumexp over ``dim``, with every term raised to at least e^-80 of the largest.
+class _LogKernel(torch.autograd.Function):
+    """out[m, i] = LSE_l(h[m, l] + k[i, l]): a kernel applied in the log domain.
 
-    On CPU, exp of inputs that underflow (below about -87 in float32) takes a slow path costing
-    5-50× (and ε = 0.01 puts much of the kernel there); the change is under N·e^-80 relative.
+    h: (M, n); k: (n', n), constant. Returns (M, n'). By hand rather than torch.logsumexp for two
+    reasons: on CPU, exp of inputs that underflow (below about -87 in float32) takes a slow path
+    costing 5-50×, and ε = 0.01 puts much of the kernel there, so terms below e^-80 of the largest
+    are raised to it (a change under n·e^-80 relative); and the backward is then one batched
+    matmul with the saved softmax weights instead of autograd's chain of elementwise passes.
     """
-    top = x.amax(dim, keepdim=True).detach()  # any shift gives the same softmax gradient
-    return (x - top).clamp(min=_TAIL).exp().sum(dim).log() + top.squeeze(dim)
+
+    @staticmethod
+    def forward(ctx, h: Tensor, k: Tensor) -> Tensor:
+        x = h[:, None, :] + k  # (M, n', n)
+        top = x.amax(-1, keepdim=True)
+        x.sub_(top).clamp_(min=_TAIL).exp_()
+        total = x.sum(-1)  # (M, n')
+        ctx.save_for_backward(x, total)  # softmax weights x / total: the derivative of LSE in h
+        return total.log() + top.squeeze(-1)
+
+    @staticmethod
+    @once_differentiable
+    def backward(ctx, grad: Tensor) -> tuple[Tensor, None]:
+        weights, total = ctx.saved_tensors
+        return torch.bmm((grad / total)[:, None, :], weights).squeeze(1), None
 
 
 def _masses(a: Tensor) -> Tensor:
@@ -50,13 +67,15 @@ def _sq_dist(x: Tensor) -> Tensor:
     return (x[:, None] - x[None, :]) ** 2
 
 
-def _lse_kernel(h: Tensor, kr: Tensor, kc: Tensor) -> Tensor:
+def _grid_kernel(h: Tensor, kr: Tensor, kc: Tensor) -> Tensor:
     """out[b, i, j] = LSE_{k,l}(h[b, k, l] + kr[i, k] + kc[j, l]) as two 1-D passes.
 
     h: (B, H, W); kr: (H, H); kc: (W, W). Returns (B, H, W).
     """
-    t = _lse(h[:, :, None, :] + kc, dim=-1)  # (B, H_k, W_j): columns first
-    return _lse(t[:, None, :, :] + kr[None, :, :, None], dim=2)  # (B, H_i, W_j)
+    batch, height, width = h.shape
+    t = _LogKernel.apply(h.reshape(batch * height, width), kc)  # (B·H_k, W_j): columns first
+    t = t.view(batch, height, width).transpose(1, 2).reshape(batch * width, height)
+    return _LogKernel.apply(t, kr).view(batch, width, height).transpose(1, 2)  # (B, H_i, W_j)
 
 
 def sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> Tensor:
@@ -80,14 +99,14 @@ def sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> Tensor:
     u = torch.zeros_like(log_a)
     v = torch.zeros_like(log_b)
     for _ in range(iters):
-        u = log_a - _lse_kernel(v, kr, kc)
-        v = log_b - _lse_kernel(u, kr, kc)  # C is symmetric, so the transpose is the same kernel
+        u = log_a - _grid_kernel(v, kr, kc)
+        v = log_b - _grid_kernel(u, kr, kc)  # C is symmetric, so the transpose is the same kernel
     # ⟨C, P⟩ = Σ P·C_rows + Σ P·C_cols, each summed in the log domain; the floor keeps log C
     # finite on the diagonal and adds under 1e-30 to the cost.
     log_cr = torch.log(cr.clamp(min=1e-30))
     log_cc = torch.log(cc.clamp(min=1e-30))
-    rows = _lse((u + _lse_kernel(v, kr + log_cr, kc)).flatten(1), dim=1)
-    cols = _lse((u + _lse_kernel(v, kr, kc + log_cc)).flatten(1), dim=1)
+    rows = torch.logsumexp((u + _grid_kernel(v, kr + log_cr, kc)).flatten(1), dim=1)
+    cols = torch.logsumexp((u + _grid_kernel(v, kr, kc + log_cc)).flatten(1), dim=1)
     return rows.exp() + cols.exp()
 
 
@@ -106,10 +125,10 @@ def dense_sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> T
     u = torch.zeros_like(log_a)
     v = torch.zeros_like(log_b)
     for _ in range(iters):
-        u = log_a - _lse(v[:, None, :] - cost / eps, dim=2)
-        v = log_b - _lse(u[:, :, None] - cost / eps, dim=1)
-    # (B, N, N); raising entries below e^-80 to it keeps exp off its slow path (see _lse) and
-    # changes the cost by under N²·e^-80
+        u = log_a - _LogKernel.apply(v, -cost / eps)
+        v = log_b - _LogKernel.apply(u, -cost / eps)  # C is symmetric
+    # (B, N, N); raising entries below e^-80 to it keeps exp off its slow path (see _LogKernel)
+    # and changes the cost by under N²·e^-80
     plan = torch.exp((u[:, :, None] + v[:, None, :] - cost / eps).clamp(min=_TAIL))
     return (plan * cost).sum((1, 2))
 

@@ -10,7 +10,7 @@ from typing import Any, Mapping
 from hydra.utils import instantiate
 from torch import nn
 
-from nsp.renderers.common import SIZES
+from nsp.renderers.common import SIZES, check_size
 from nsp.renderers.dcgan import DCGAN, ShadingNetwork
 from nsp.renderers.dual import DualPathway
 from nsp.renderers.pxlshuffle import PxlShuffleNet, RasterizationNetwork
@@ -19,6 +19,7 @@ from nsp.renderers.unet import UNet
 
 def build(config: Mapping[str, Any], brush: str) -> nn.Module:
     """The renderer a ``renderer`` config node describes (``_target_``, ``size``, ``width``, …) for ``brush``."""
+    check_size(config["size"])  # before instantiate, which would wrap the error in its own
     return instantiate(dict(config), brush=brush, _convert_="all")
 
 

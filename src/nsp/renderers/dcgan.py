@@ -2,7 +2,7 @@
 
 The paper's shading network (appendix table) is this stack: at S = 128 and width 1 its layers are
 C1 512×4×4/1 (4×4) · C2 512/2 (8×8) · C3 256/2 · C4 128/2 · C5 64/2 · C6 out/2 (128×128).
-A smaller S drops the layers before the output one.
+A smaller S stops at its resolution: the layer that reaches S draws the outputs.
 """
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
 The paper's rasterization network (appendix table) is this network: at S = 128 and width 1 its
 layers are F1..F4 512-1024-2048-4096 · view 16×16×16 · three stages of Conv 3×3 + ReLU, Conv 3×3 +
 pixel shuffle ×2 with (32, 32), (16, 16), (8, 4) filters, ending at 128×128×1.
-A smaller S drops the stages before the output one.
+A smaller S stops at its resolution: the stage that reaches S draws the outputs.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from nsp.brushes import get_brush
 from nsp.renderers.common import channels, check_size
 
 PAPER_FEATURES = (512, 1024, 2048)  # F1..F3; F4 is the 16×16 view
-PAPER_STAGES = ((32, 32), (16, 16))  # filters of the stages before the output stage (which has 8, 4·out)
+PAPER_STAGES = ((32, 8), (16, 4), (8, 1))  # per stage: conv filters, channels after the shuffle
 
 
 class RasterizationNetwork(nn.Module):
@@ -33,13 +33,18 @@ class RasterizationNetwork(nn.Module):
         self.fc = nn.Sequential(*fc)
 
         n_stages = int(math.log2(size // 16))
-        stages = [(channels(a, width), channels(b, width)) for a, b in PAPER_STAGES[: n_stages - 1]]
-        stages.append((channels(8, width), 4 * out_channels))  # the output stage shuffles to out_channels
+        stages = [(channels(a, width), channels(b, width)) for a, b in PAPER_STAGES[:n_stages]]
+        stages[-1] = (stages[-1][0], out_channels)  # the last stage draws the outputs
         convs: list[nn.Module] = []
         c_in = self.view
         for a, b in stages:
-            convs += [nn.Conv2d(c_in, a, 3, padding=1), nn.ReLU(inplace=True), nn.Conv2d(a, b, 3, padding=1), nn.PixelShuffle(2)]
-            c_in = b // 4
+            convs += [
+                nn.Conv2d(c_in, a, 3, padding=1),
+                nn.ReLU(inplace=True),
+                nn.Conv2d(a, 4 * b, 3, padding=1),
+                nn.PixelShuffle(2),  # 4·b channels at R×R -> b at 2R×2R
+            ]
+            c_in = b
         self.convs = nn.Sequential(*convs)
 
     def forward(self, x: Tensor) -> Tensor:

@@ -58,8 +58,9 @@ def train(cfg: DictConfig) -> dict:
         ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True),
         SaveOnInterrupt(checkpoints / "last.ckpt"),
         LearningRateMonitor(),
-        RichProgressBar(),
     ]
+    if cfg.trainer.enable_progress_bar:
+        callbacks.append(RichProgressBar())
     trainer: L.Trainer = instantiate(cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out)
 
     start = time.perf_counter()

@@ -71,8 +71,9 @@ class RendererModule(L.LightningModule):
 
     def on_validation_epoch_end(self) -> None:
         psnr_fg, psnr_alpha = self.psnr_fg.compute(), self.psnr_alpha.compute()
-        self.psnr_fg.reset()
-        self.psnr_alpha.reset()
+        with torch.inference_mode(False):  # states reset under validate()'s inference mode would break fit's updates
+            self.psnr_fg.reset()
+            self.psnr_alpha.reset()
         self.log_dict(
             {"val/psnr_fg": psnr_fg, "val/psnr_alpha": psnr_alpha, "val/psnr": (psnr_fg + psnr_alpha) / 2},
             prog_bar=True,

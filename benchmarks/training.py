@@ -1,0 +1,138 @@
+"""Renderer training on CPU: datamodule strokes/s (the vector engine drawing training batches) next to
+training-step strokes/s (forward, backward and Adam step of each renderer), at the default preset.
+
+Data must not be the bottleneck: each brush's data rate should exceed the step rate of the renderers.
+Prints markdown tables and writes them as the "## Renderer training" section of docs/benchmarks.md,
+leaving the other sections as they are.
+
+    python benchmarks/training.py [--threads N] [--repeats R] [--steps K]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import re
+import sys
+import time
+from pathlib import Path
+
+import torch
+from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
+
+from nsp.brushes import BRUSHES
+from nsp.training import RendererModule, StrokeData
+from nsp.training.schema import register_configs
+
+ROOT = Path(__file__).resolve().parents[1]
+CONF = ROOT / "conf" / "train"
+DOC = ROOT / "docs" / "benchmarks.md"
+HEADING = "## Renderer training"
+
+
+def best_rate(fn, strokes: int, repeats: int) -> float:
+    """Strokes/s of the fastest of ``repeats`` timed calls after one warm-up (the machine is shared,
+    so the fastest is the least disturbed estimate)."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return strokes / min(times)
+
+
+def cpu_name() -> str:
+    for line in Path("/proc/cpuinfo").read_text().splitlines() if Path("/proc/cpuinfo").exists() else []:
+        if line.startswith("model name"):
+            return line.split(":", 1)[1].strip()
+    return platform.processor() or platform.machine()
+
+
+def default_config(*overrides: str):
+    register_configs()
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        return compose("train", overrides=list(overrides))
+
+
+def data_rate(brush: str, steps: int, repeats: int) -> float:
+    cfg = default_config(f"brush={brush}")
+    data = StrokeData(brush, cfg.model.size, batch_size=cfg.data.batch_size, val_size=1, num_workers=cfg.data.num_workers)
+    data.setup("fit")
+    loader = data.train_dataloader()
+
+    def draw():
+        for _, _ in zip(range(steps), loader):
+            pass
+
+    return best_rate(draw, steps * cfg.data.batch_size, repeats)
+
+
+def step_rate(renderer: str, brush: str, steps: int, repeats: int) -> tuple[float, int]:
+    """Strokes/s of training steps on one pre-drawn batch, and the renderer's parameter count."""
+    cfg = default_config(f"renderer={renderer}", f"brush={brush}")
+    model = RendererModule(OmegaConf.to_container(cfg.renderer, resolve=True), brush)
+    optimizer = torch.optim.Adam(model.parameters(), cfg.model.optimizer.lr)
+    data = StrokeData(brush, cfg.model.size, batch_size=cfg.data.batch_size, val_size=1)
+    data.setup("fit")
+    batch = data.train_set[0]
+
+    def train():
+        for _ in range(steps):
+            loss, _, _ = model.loss(batch)
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+
+    return best_rate(train, steps * cfg.data.batch_size, repeats), sum(p.numel() for p in model.parameters())
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--threads", type=int, default=torch.get_num_threads())
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--steps", type=int, default=10, help="batches per timed call")
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+    cfg = default_config()
+    renderers = sorted(p.stem for p in (CONF / "renderer").glob("*.yaml"))
+
+    data_rows = ["| brush | datamodule strokes/s |", "|---|---:|"]
+    for brush in BRUSHES:
+        data_rows.append(f"| {brush} | {data_rate(brush, args.steps, args.repeats):.0f} |")
+        print(data_rows[-1], flush=True)
+    step_rows = ["| renderer | parameters | training-step strokes/s |", "|---|---:|---:|"]
+    for renderer in renderers:
+        rate, params = step_rate(renderer, "watercolor", args.steps, args.repeats)
+        step_rows.append(f"| {renderer} | {params / 1e6:.2f} M | {rate:.0f} |")
+        print(step_rows[-1], flush=True)
+
+    command = " ".join(["python", "benchmarks/training.py", *sys.argv[1:]])
+    machine = f"{os.cpu_count()}-core CPU ({cpu_name()}), torch {torch.__version__}, {torch.get_num_threads()} thread(s)"
+    text = "\n".join([
+        HEADING,
+        "",
+        f"Default preset: {cfg.model.size} px, width {cfg.model.width}, batch {cfg.data.batch_size}, "
+        f"`data.num_workers={cfg.data.num_workers}`. Datamodule: training batches drawn by the vector",
+        "engine (antialiased); training step: forward, backward and Adam step on a watercolor batch.",
+        "Rates are the best of several timed runs on a shared machine.",
+        "",
+        f"Command: `{command}`  ",
+        f"Machine: {machine}",
+        "",
+        *data_rows,
+        "",
+        *step_rows,
+        "",
+    ])
+    print(text)
+    doc = DOC.read_text() if DOC.exists() else "# Benchmarks\n"
+    section = re.compile(rf"^{re.escape(HEADING)}\n.*?(?=^## |\Z)", re.S | re.M)
+    text += "\n"
+    doc = section.sub(lambda _: text, doc) if section.search(doc) else doc.rstrip("\n") + "\n\n" + text
+    DOC.write_text(doc.rstrip("\n") + "\n")
+
+
+if __name__ == "__main__":
+    main()

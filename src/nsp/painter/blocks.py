@@ -1,0 +1,127 @@
+"""Geometry of the progressive schedule (paper §3, "progressive rendering"): levels of overlapping
+square blocks, how many strokes each block gets, and how a block's strokes move onto the canvas.
+
+At level m the canvas is cut into m blocks along its long side (and proportionally fewer along a
+short one, so blocks stay square for renderers with square outputs); neighbouring blocks overlap.
+A block whose square reaches past the canvas (level 1 of a non-square image) is padded; its
+``weights`` say which of its pixels are canvas.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor
+
+
+def grid_shape(m: int, height: int, width: int) -> tuple[int, int]:
+    """(rows, cols) of level m: m along the long side, about square cells along the short one."""
+    if width >= height:
+        return max(1, round(m * height / width)), m
+    return m, max(1, round(m * width / height))
+
+
+def progressive_grids(strokes: int, height: int, width: int, max_per_block: int) -> list[int]:
+    """Levels m = 1…M, M the fewest for which no block gets more than ``max_per_block`` strokes."""
+    grids, blocks = [1], 1
+    while math.ceil(strokes / blocks) > max_per_block:
+        grids.append(len(grids) + 1)
+        rows, cols = grid_shape(grids[-1], height, width)
+        blocks += rows * cols
+    return grids
+
+
+def distribute(strokes: int, blocks: list[int]) -> list[Tensor]:
+    """Split ``strokes`` over the blocks of each level, exactly: (blocks_l,) counts per level.
+
+    Every block gets ⌊strokes / Σblocks⌋; the remainder goes one each to blocks of the finest
+    levels first (detail is where extra strokes show), spread evenly across each level.
+    """
+    base, extra = divmod(strokes, sum(blocks))
+    counts = [torch.full((n,), base, dtype=torch.long) for n in blocks]
+    for level in reversed(range(len(blocks))):
+        n = blocks[level]
+        take = min(extra, n)
+        if take:
+            counts[level][torch.arange(take) * n // take] += 1
+        extra -= take
+    return counts
+
+
+@dataclass(frozen=True)
+class Level:
+    """One level: square blocks of ``side`` canvas pixels over a ``height``×``width`` canvas.
+
+    Attributes:
+        side: block side in canvas pixels.
+        origins: (B, 2) long, each block's top-left pixel (y, x); negative or past the canvas
+            where the block is padded.
+        counts: (B,) long, strokes each block gets.
+        height, width: the canvas, in pixels.
+    """
+
+    side: int
+    origins: Tensor
+    counts: Tensor
+    height: int
+    width: int
+
+    @classmethod
+    def grid(cls, m: int, height: int, width: int, overlap: float, counts: Tensor) -> "Level":
+        """Level m with blocks ``overlap`` (a fraction of a cell) larger than their grid cell."""
+        rows, cols = grid_shape(m, height, width)
+        side = min(math.ceil(max(height / rows, width / cols) * (1 + overlap)), max(height, width))
+
+        def starts(n: int, extent: int) -> Tensor:
+            if n == 1:
+                return torch.tensor([(extent - side) // 2])  # centred; padded if the block is larger
+            return torch.linspace(0, extent - side, n).round().long()
+
+        ys, xs = torch.meshgrid(starts(rows, height), starts(cols, width), indexing="ij")
+        return cls(side, torch.stack([ys.flatten(), xs.flatten()], 1), counts, height, width)
+
+    @property
+    def blocks(self) -> int:
+        return len(self.origins)
+
+    def crop(self, image: Tensor, size: int, pad: str = "replicate") -> Tensor:
+        """The blocks of ``image`` (C, H, W), resampled to ``size``: (B, C, size, size).
+
+        Pixels past the canvas repeat its edge (``pad="replicate"``) or are 0 (``"constant"``).
+        """
+        s = self.side
+        top, left = (-self.origins.min(0).values).clamp(min=0).tolist()
+        bottom = max(0, int(self.origins[:, 0].max()) + s - self.height)
+        right = max(0, int(self.origins[:, 1].max()) + s - self.width)
+        if top or left or bottom or right:
+            image = F.pad(image[None], (left, right, top, bottom), mode=pad)[0]
+        blocks = torch.stack([image[:, y + top : y + top + s, x + left : x + left + s] for y, x in self.origins.tolist()])
+        if size == s:
+            return blocks
+        # area averaging when shrinking keeps thin detail; bilinear when a fixed-size renderer is larger
+        mode = "area" if size < s else "bilinear"
+        return F.interpolate(blocks, size=(size, size), mode=mode, **({} if mode == "area" else {"align_corners": False}))
+
+    def weights(self, size: int, like: Tensor) -> Tensor:
+        """(B, 1, size, size) in [0, 1]: the share of each block pixel that lies on the canvas."""
+        return self.crop(like.new_ones(1, self.height, self.width), size, pad="constant")
+
+    def to_canvas(self, x: Tensor, kinds: tuple[str, ...], size: int) -> Tensor:
+        """Strokes of each block, drawn on a ``size``-pixel block, in whole-canvas parameters.
+
+        x: (B, K, d) in [0, 1]; kinds: the brush's parameter kinds. Returns (B, K, d) in [0, 1]:
+        positions go through the block's pixels to the canvas's, sizes (fractions of the width)
+        scale by side / W; angles, colours and transparency do not change.
+        """
+        scale = self.side / size  # canvas pixels per block pixel
+        out = x.clone()
+        for kind, extent, origin in (("x", self.width, self.origins[:, 1]), ("y", self.height, self.origins[:, 0])):
+            idx = [i for i, k in enumerate(kinds) if k == kind]
+            # block pixel p·(size−1) has its centre at canvas pixel origin + (p·(size−1) + ½)·scale − ½
+            pixel = (x[..., idx] * (size - 1) + 0.5) * scale - 0.5 + origin[:, None, None].to(x)
+            out[..., idx] = pixel / max(extent - 1, 1)
+        sizes = [i for i, k in enumerate(kinds) if k == "size"]
+        out[..., sizes] = x[..., sizes] * self.side / self.width
+        return out.clamp(0, 1)

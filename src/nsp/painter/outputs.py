@@ -1,0 +1,46 @@
+"""A painting's files (SPEC §6): final.png, strokes.json, painting.svg, animation.gif, and its scores."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+from torch import Tensor
+
+from nsp.brushes import Brush
+from nsp.engine import paint_canvas
+from nsp.io.export import write_gif, write_png, write_svg
+from nsp.io.strokes import StrokeFile, save_strokes
+from nsp.painter.images import long_side, resize
+
+SCORE_SIZE = 256  # long side at which psnr and ssim compare the painting with the photo
+
+
+def write_strokes_and_png(out: Path, brush: Brush, strokes: Tensor, aspect: tuple[int, int], background: str,
+                          render_size: int) -> Tensor:
+    """Write ``strokes.json`` and ``final.png`` (the engine, long side ``render_size``) of strokes
+    (N, d) painted on a canvas of ``aspect`` (height, width); returns the image (3, h, w)."""
+    height, width = long_side(*aspect, render_size)
+    save_strokes(out / "strokes.json", StrokeFile(brush.name, strokes, width, height, background))
+    with torch.no_grad():
+        final = paint_canvas(brush, strokes, height, width, background)
+    write_png(out / "final.png", final)
+    return final
+
+
+def write_vector_files(out: Path, brush: Brush, strokes: Tensor, aspect: tuple[int, int], background: str,
+                       render_size: int, animation_size: int, frames: int) -> None:
+    """Write ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order)."""
+    write_svg(out / "painting.svg", brush.name, strokes, *long_side(*aspect, render_size)[::-1], background)
+    height, width = long_side(*aspect, animation_size)
+    write_gif(out / "animation.gif", brush.name, strokes, width, height, background, frames=frames)
+
+
+def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:
+    """PSNR (dB) and SSIM of a painting against its photo, both (3, ·, ·) in [0, 1], compared at a
+    256-pixel long side (SSIM with Wang et al.'s Gaussian window, σ = 1.5, as torchmetrics)."""
+    from skimage.metrics import peak_signal_noise_ratio, structural_similarity  # torchmetrics: +2 s import
+
+    a, b = (resize(image, SCORE_SIZE).permute(1, 2, 0).double().numpy() for image in (painting, photo))
+    ssim = structural_similarity(a, b, data_range=1.0, channel_axis=2, gaussian_weights=True, sigma=1.5,
+                                 use_sample_covariance=False)
+    return {"psnr": round(float(peak_signal_noise_ratio(b, a, data_range=1.0)), 3), "ssim": round(float(ssim), 4)}

@@ -1,0 +1,176 @@
+"""Stroke search (paper §3): strokes are optimized by gradient descent so that, composited in order,
+they reproduce the target; progressively, from one block to finer grids of overlapping blocks.
+
+Each level paints all its blocks as one batch (blocks × active strokes × pixels). Strokes join a
+block's active set one at a time, at its largest error; after each addition the whole active set
+takes ``steps_per_stroke`` optimizer steps. A finished level is rendered by the vector engine at
+the working resolution and is the background of the next.
+"""
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import torch
+from torch import Tensor
+from torch.optim import Optimizer
+
+from nsp.brushes import Brush
+from nsp.engine import composite, paint_canvas, parse_color
+from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids
+from nsp.painter.placement import place_strokes
+
+
+class Callback:
+    """Hooks the painter calls while it works (logging, progress); each does nothing by default."""
+
+    def on_strokes(self, painter: "Painter", added: int) -> None:
+        """``added`` strokes joined the active sets."""
+
+    def on_step(self, painter: "Painter", step: int, losses: dict[str, float]) -> None:
+        """Optimizer step ``step`` (counted over all levels) was taken with these block-mean losses."""
+
+    def on_level(self, painter: "Painter", level: int, canvas: Tensor) -> None:
+        """Level ``level`` (0-based) is done; ``canvas`` (3, H, W) is everything painted so far."""
+
+
+class Painter:
+    """Paints a target with strokes of one brush.
+
+    Args:
+        brush: the brush.
+        renderer: ``renderer(x (B, d), size) -> fg (B, 3, size, size), alpha (B, 1, size, size)``
+            with ``renderer.resolution(side) -> size`` (see :mod:`nsp.painter.renderer`).
+        loss: ``loss(canvas, target) -> {"total": scalar, ...}`` on (B, 3, h, w) blocks.
+        optimizer: builds the optimizer of a list of parameters (e.g. a ``_partial_`` RMSprop).
+        grids: m of each level, in order; ``None``: 1…M, M from ``max_per_block``.
+        max_per_block: the most strokes a block gets when the levels are chosen here.
+        overlap: how much larger than its grid cell a block is (fraction).
+        steps_per_stroke: optimizer steps after each stroke joins the active set (paper: 20).
+        init_size: range of new strokes' sizes, as fractions of the block width.
+        background: canvas colour.
+        generator: the only source of randomness (new strokes' sizes, angles, directions).
+        callbacks: see :class:`Callback`.
+        trainable: indices of the parameters optimized; ``None``: all (style transfer's colour-only
+            mode optimizes the colours alone).
+    """
+
+    def __init__(
+        self,
+        brush: Brush,
+        renderer,
+        loss: Callable[[Tensor, Tensor], dict[str, Tensor]],
+        optimizer: Callable[[list[Tensor]], Optimizer],
+        *,
+        grids: Sequence[int] | None = None,
+        max_per_block: int = 10,
+        overlap: float = 0.25,
+        steps_per_stroke: int = 5,
+        init_size: tuple[float, float] = (0.1, 0.3),
+        background: str = "white",
+        generator: torch.Generator | None = None,
+        callbacks: Sequence[Callback] = (),
+        trainable: Sequence[int] | None = None,
+    ):
+        self.brush, self.renderer, self.loss, self.optimizer = brush, renderer, loss, optimizer
+        self.grids, self.max_per_block, self.overlap = grids, max_per_block, overlap
+        self.steps_per_stroke, self.init_size, self.background = steps_per_stroke, tuple(init_size), background
+        self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
+        self.callbacks = list(callbacks)
+        self.frozen = [] if trainable is None else [i for i in range(brush.d) if i not in set(trainable)]
+        self.step = 0
+        self._done: list[Tensor] = []  # finished levels' strokes, whole-canvas parameters
+        self._active: tuple[Level, Tensor, Tensor, int] | None = None  # level, x, painted mask, size
+
+    def levels(self, strokes: int, height: int, width: int) -> list[Level]:
+        """The schedule for ``strokes`` strokes on a height×width canvas; counts sum to ``strokes``."""
+        grids = list(self.grids) if self.grids else progressive_grids(strokes, height, width, self.max_per_block)
+        blocks = [rows * cols for rows, cols in (grid_shape(m, height, width) for m in grids)]
+        counts = distribute(strokes, blocks)
+        return [Level.grid(m, height, width, self.overlap, n) for m, n in zip(grids, counts)]
+
+    def paint(self, target: Tensor, strokes: int) -> Tensor:
+        """Paint ``target`` (3, H, W) in [0, 1] with exactly ``strokes`` strokes.
+
+        Returns (strokes, d) in [0, 1], whole-canvas parameters in painting order. Interrupted,
+        :meth:`strokes` still returns what was painted.
+        """
+        _, height, width = target.shape
+        color = torch.tensor(parse_color(self.background), dtype=target.dtype)
+        canvas = color[:, None, None].expand(3, height, width)
+        for index, level in enumerate(self.levels(strokes, height, width)):
+            x = self._paint_level(level, target, canvas)
+            with torch.no_grad():
+                canvas = paint_canvas(self.brush, x, height, width, canvas=canvas)
+            self._done.append(x)
+            self._active = None
+            for callback in self.callbacks:
+                callback.on_level(self, index, canvas)
+        return self.strokes()
+
+    def strokes(self) -> Tensor:
+        """(N, d): every stroke painted so far, the current level's active sets included."""
+        parts = list(self._done)
+        if self._active is not None:
+            level, x, painted, size = self._active
+            parts.append(_in_order(level.to_canvas(x.detach(), self.brush.kinds, size), painted))
+        return torch.cat(parts) if parts else torch.empty(0, self.brush.d)
+
+    def _paint_level(self, level: Level, target: Tensor, canvas: Tensor) -> Tensor:
+        """Optimize one level's blocks together; returns its strokes, whole-canvas, in painting order."""
+        size = self.renderer.resolution(level.side)
+        goal = level.crop(target, size)  # (B, 3, s, s)
+        under = level.crop(canvas, size)
+        weights = level.weights(size, target)  # padding is scored as if painted right
+        depth = int(level.counts.max())
+        exists = torch.arange(depth)[None] < level.counts[:, None]  # (B, K): blocks get K or K−1
+        x = torch.zeros(level.blocks, depth, self.brush.d, requires_grad=True)
+        optimizer = self.optimizer([x])
+        painted = torch.zeros_like(exists)
+        self._active = (level, x, painted, size)
+        current = under
+        for k in range(depth):
+            with torch.no_grad():
+                x[:, k] = place_strokes(self.brush, current, goal, weights, self.init_size, self.generator)
+            painted[:, k] = exists[:, k]
+            for callback in self.callbacks:
+                callback.on_strokes(self, int(exists[:, k].sum()))
+            if not self.steps_per_stroke:
+                with torch.no_grad():
+                    current = self._blend(x[:, : k + 1], painted[:, : k + 1], under, goal, weights, size)
+            for _ in range(self.steps_per_stroke):
+                out = self._blend(x[:, : k + 1], painted[:, : k + 1], under, goal, weights, size)
+                losses = self.loss(out, goal)
+                optimizer.zero_grad()
+                losses["total"].backward()
+                if self.frozen:
+                    x.grad[..., self.frozen] = 0
+                optimizer.step()
+                with torch.no_grad():
+                    x.clamp_(0, 1)
+                current = out.detach()
+                self.step += 1
+                scalars = {name: float(value.detach()) for name, value in losses.items()}
+                for callback in self.callbacks:
+                    callback.on_step(self, self.step, scalars)
+        return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
+
+    def _blend(self, x: Tensor, painted: Tensor, under: Tensor, goal: Tensor, weights: Tensor, size: int) -> Tensor:
+        """Composite the active strokes x (B, k, d) of each block on its background: (B, 3, s, s).
+
+        Strokes not painted (blocks with fewer strokes) get alpha 0; padding shows the target.
+        """
+        blocks, k, d = x.shape
+        fg, alpha = self.renderer(x.reshape(-1, d), size)
+        alpha = alpha.view(blocks, k, 1, size, size) * painted[:, :, None, None, None]
+        out = composite(fg.view(blocks, k, 3, size, size), alpha, under)
+        return weights * out + (1 - weights) * goal
+
+
+def _in_order(x: Tensor, painted: Tensor) -> Tensor:
+    """The painted strokes of x (B, K, d) in painting order: (N, d).
+
+    Interleaved across blocks (every block's first stroke, then every second, …): a level then
+    fills in everywhere at once, and each block's later, finer strokes stay on top of its
+    neighbours' earlier, broader ones where blocks overlap.
+    """
+    return x.transpose(0, 1)[painted.T]

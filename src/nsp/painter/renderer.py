@@ -1,0 +1,62 @@
+"""The painter's differentiable renderers behind one interface (SPEC §5, "renderers"):
+``renderer(x (B, d), size) -> (foreground (B, 3, size, size), alpha (B, 1, size, size))``.
+
+``analytic`` is the vector engine's soft mode: any resolution, nothing to train. ``neural`` is a
+network trained by ``python -m nsp.train``, the paper's choice: one fixed output size S.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from torch import Tensor, nn
+
+from nsp.brushes import Brush
+from nsp.engine import render
+
+
+class AnalyticRenderer:
+    """The soft vector engine.
+
+    Args:
+        brush: the brush.
+        softness: edge width in block pixels; wider edges reach further but blur the optimum.
+        block_size: the largest block side rendered; bigger blocks are optimized downsampled.
+    """
+
+    def __init__(self, brush: Brush, softness: float = 0.5, block_size: int = 64):
+        self.brush, self.softness, self.block_size = brush, softness, block_size
+
+    def resolution(self, side: int) -> int:
+        """Pixels per side a block of ``side`` canvas pixels is optimized at."""
+        return min(side, self.block_size)
+
+    def __call__(self, x: Tensor, size: int) -> tuple[Tensor, Tensor]:
+        return render(self.brush, x, size, softness=self.softness)
+
+
+class NeuralRenderer:
+    """A trained network (SPEC §4) whose S×S output every block is resampled to."""
+
+    def __init__(self, network: nn.Module, size: int):
+        self.network = network.eval().requires_grad_(False)  # only the strokes are optimized
+        self.size = size
+
+    def resolution(self, side: int) -> int:
+        return self.size
+
+    def __call__(self, x: Tensor, size: int) -> tuple[Tensor, Tensor]:
+        return self.network(x)
+
+
+def load_neural(path: str | Path, brush: Brush) -> NeuralRenderer:
+    """The renderer in an ``nsp.train`` checkpoint; ``ValueError`` naming the problem if the file is
+    not one or was trained for another brush."""
+    from nsp.training import load_renderer  # imports Lightning: only for this renderer
+
+    network, trained_for, size = load_renderer(path, map_location="cpu")
+    if trained_for != brush.name:
+        raise ValueError(
+            f"renderer.checkpoint={path} renders {trained_for} strokes, not brush={brush.name}; "
+            f"use brush={trained_for} or a checkpoint from `python -m nsp.train brush={brush.name}`"
+        )
+    return NeuralRenderer(network, size)

@@ -1,0 +1,122 @@
+"""Training: the data, a few steps lowering the loss, checkpoints the painter can load, ``train(cfg)``."""
+import json
+from pathlib import Path
+
+import lightning as L
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+from hydra.core.hydra_config import HydraConfig
+from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+from nsp.brushes import get_brush
+from nsp.engine import render
+from nsp.training import RendererModule, SaveOnInterrupt, StrokeData, load_renderer, train
+from nsp.training.data import EpochSampler, RandomStrokes
+from nsp.training.schema import register_configs
+
+CONF = Path(__file__).parents[1] / "conf" / "train"
+TINY = {"_target_": "nsp.renderers.DualPathway", "size": 32, "width": 0.125}
+
+
+def tiny_trainer(**kwargs) -> L.Trainer:
+    return L.Trainer(
+        accelerator="cpu", logger=False, enable_checkpointing=False, enable_progress_bar=False,
+        enable_model_summary=False, num_sanity_val_steps=0, **kwargs,
+    )
+
+
+def test_batches_are_engine_renderings_fresh_each_epoch_and_reproducible():
+    brush = get_brush("markerpen")
+    strokes = RandomStrokes(brush, 32, batch_size=4, seed=7)
+    x, fg, alpha = strokes[3]
+    expected_fg, expected_alpha = render(brush, x, 32)
+    assert torch.equal(fg, expected_fg) and torch.equal(alpha, expected_alpha)
+    assert torch.equal(x, strokes[3][0])  # same index, same strokes: independent of workers and processes
+
+    sampler = EpochSampler(5)
+    first = list(sampler)
+    sampler.set_epoch(1)
+    assert len(first) == 5 and set(first).isdisjoint(sampler)
+    ranks = [list(EpochSampler(5, rank, 2)) for rank in (0, 1)]
+    assert sorted(ranks[0] + ranks[1]) == first
+
+
+def test_validation_set_is_fixed_whatever_the_training_seed():
+    sets = []
+    for seed in (0, 1):
+        data = StrokeData("tape", 32, batch_size=8, val_size=16, seed=seed)
+        data.setup("fit")
+        sets.append(data.val_set.tensors[0])
+    assert torch.equal(*sets)
+
+
+def test_a_few_steps_lower_the_loss_and_the_checkpoint_gives_the_same_renderer(tmp_path):
+    L.seed_everything(0)
+    data = StrokeData("watercolor", 32, batch_size=16, epoch_size=16 * 25, val_size=64)
+    model = RendererModule(TINY, "watercolor", optimizer=lambda p: torch.optim.Adam(p, 3e-3))
+    trainer = tiny_trainer(max_steps=25)
+    before = trainer.validate(model, datamodule=data, verbose=False)[0]
+    trainer.fit(model, datamodule=data)
+    after = trainer.validate(model, datamodule=data, verbose=False)[0]
+    assert after["val/loss"] < 0.8 * before["val/loss"]
+    assert after["val/psnr"] == pytest.approx((after["val/psnr_fg"] + after["val/psnr_alpha"]) / 2)
+
+    trainer.save_checkpoint(tmp_path / "model.ckpt")
+    renderer, brush, size = load_renderer(tmp_path / "model.ckpt")
+    assert (brush, size, renderer.training) == ("watercolor", 32, False)
+    x = get_brush("watercolor").sample(4)
+    with torch.no_grad():
+        for loaded, trained in zip(renderer(x), model.eval()(x)):
+            assert torch.equal(loaded, trained)
+
+
+def test_interrupt_keeps_a_resumable_checkpoint(tmp_path):
+    class CtrlC(L.Callback):
+        def on_train_batch_end(self, trainer, *args):
+            if trainer.global_step == 2:
+                raise KeyboardInterrupt
+
+    data = StrokeData("tape", 32, batch_size=4, epoch_size=40, val_size=8)
+    trainer = tiny_trainer(max_steps=10, callbacks=[SaveOnInterrupt(tmp_path / "last.ckpt"), CtrlC()])
+    with pytest.raises(SystemExit):
+        trainer.fit(RendererModule(TINY, "tape"), datamodule=data)
+    assert torch.load(tmp_path / "last.ckpt", weights_only=True)["global_step"] == 2
+
+
+def compose_train(tmp_path: Path, *overrides: str):
+    register_configs()
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("train", overrides=[
+            "model.width=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=16",
+            "trainer.max_steps=8", "trainer.log_every_n_steps=2", "trainer.num_sanity_val_steps=0", "trainer.enable_progress_bar=false",
+            f"output_dir={tmp_path}", *overrides,
+        ], return_hydra_config=True)
+    HydraConfig.instance().set_config(cfg)
+    return cfg
+
+
+def test_train_writes_metrics_checkpoints_and_tensorboard(tmp_path):
+    metrics = train(compose_train(tmp_path, "renderer=dcgan", "brush=oilpaint"))
+    assert json.loads((tmp_path / "metrics.json").read_text()) == metrics
+    assert {"val/psnr", "val/psnr_fg", "val/psnr_alpha", "seconds"} <= metrics.keys()
+    assert (metrics["steps"], metrics["renderer"], metrics["brush"], metrics["status"]) == (8, "dcgan", "oilpaint", "completed")
+    assert {p.name for p in (tmp_path / "checkpoints").iterdir()} == {"best.ckpt", "last.ckpt"}
+
+    events = EventAccumulator(str(tmp_path / "tensorboard"), size_guidance={"images": 0}).Reload().Tags()
+    assert {"train/loss", "val/psnr", "val/psnr_fg", "val/psnr_alpha"} <= set(events["scalars"])
+    assert "val/strokes" in events["images"]
+    assert load_renderer(tmp_path / "checkpoints" / "best.ckpt")[1:] == ("oilpaint", 32)
+
+    # Resuming continues from the saved step.
+    resumed = train(compose_train(tmp_path / "resumed", "renderer=dcgan", "brush=oilpaint", "trainer.max_steps=12",
+                                  f"ckpt_path={tmp_path / 'checkpoints' / 'last.ckpt'}"))
+    assert resumed["steps"] == 12
+
+
+def test_load_renderer_refuses_other_files(tmp_path):
+    (tmp_path / "notes.txt").write_text("not a checkpoint")
+    torch.save({"state_dict": {}}, tmp_path / "other.ckpt")
+    for path in (tmp_path / "notes.txt", tmp_path / "other.ckpt"):
+        with pytest.raises(ValueError, match="is not an nsp renderer checkpoint"):
+            load_renderer(path)
