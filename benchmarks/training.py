@@ -58,13 +58,13 @@ def default_config(*overrides: str):
 
 def data_rate(brush: str, steps: int, repeats: int) -> float:
     cfg = default_config(f"brush={brush}")
-    data = StrokeData(brush, cfg.model.size, batch_size=cfg.data.batch_size, val_size=1, num_workers=cfg.data.num_workers)
+    data = StrokeData(brush, cfg.model.size, batch_size=cfg.data.batch_size, val_size=1)
     data.setup("fit")
     loader = data.train_dataloader()
 
     def draw():
-        for _, _ in zip(range(steps), loader):
-            pass
+        for _, x in zip(range(steps), loader):
+            data.on_after_batch_transfer(x, 0)  # where the engine renders the batch
 
     return best_rate(draw, steps * cfg.data.batch_size, repeats)
 
@@ -76,7 +76,7 @@ def step_rate(renderer: str, brush: str, steps: int, repeats: int) -> tuple[floa
     optimizer = torch.optim.Adam(model.parameters(), cfg.model.optimizer.lr)
     data = StrokeData(brush, cfg.model.size, batch_size=cfg.data.batch_size, val_size=1)
     data.setup("fit")
-    batch = data.train_set[0]
+    batch = data.on_after_batch_transfer(data.train_set[0], 0)
 
     def train():
         for _ in range(steps):
@@ -113,9 +113,9 @@ def main() -> None:
     text = "\n".join([
         HEADING,
         "",
-        f"Default preset: {cfg.model.size} px, width {cfg.model.width}, batch {cfg.data.batch_size}, "
-        f"`data.num_workers={cfg.data.num_workers}`. Datamodule: training batches drawn by the vector",
-        "engine (antialiased); training step: forward, backward and Adam step on a watercolor batch.",
+        f"Default preset: {cfg.model.size} px, width {cfg.model.width}, batch {cfg.data.batch_size}. Datamodule:",
+        "training batches sampled and drawn by the vector engine (antialiased, in the training process, as",
+        "`python -m nsp.train` does); training step: forward, backward and Adam step on a watercolor batch.",
         "Rates are the best of several timed runs on a shared machine.",
         "",
         f"Command: `{command}`  ",

@@ -1,16 +1,13 @@
 """Transportation loss: separable-kernel Sinkhorn vs the dense (HW)×(HW) reference, on CPU.
 
-Paper settings (48×48 grid, ε = 0.01, 5 iterations). Prints a markdown table and writes it as the
-"## Transport loss" section of docs/benchmarks.md, leaving the other sections as they are.
+Paper settings (48×48 grid, ε = 0.01, 5 iterations). Prints a markdown table and writes it to the
+"Transport loss" section of docs/benchmarks.md.
 
     python benchmarks/transport.py [--threads N] [--repeats R]
 """
 from __future__ import annotations
 
 import argparse
-import os
-import platform
-import re
 import sys
 import time
 from pathlib import Path
@@ -19,10 +16,11 @@ import torch
 
 from nsp.painter.transport import dense_sinkhorn, sinkhorn
 
+sys.path.insert(0, str(Path(__file__).parent))
+from doc import machine, write_section  # noqa: E402
+
 GRID, EPS, ITERS = 48, 0.01, 5
 BATCHES = (1, 4)
-DOC = Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md"
-HEADING = "## Transport loss"
 
 
 def best_ms(fn, repeats: int) -> float:
@@ -37,16 +35,6 @@ def best_ms(fn, repeats: int) -> float:
     return 1e3 * min(times)
 
 
-def cpu_name() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
 def run(repeats: int) -> list[str]:
     rows = [
         "| batch | pass | separable (ms) | dense (ms) | speedup | rel. diff |",
@@ -59,10 +47,10 @@ def run(repeats: int) -> list[str]:
         fast, slow = sinkhorn(a, b, EPS, ITERS), dense_sinkhorn(a, b, EPS, ITERS)
         diff = ((fast - slow).abs() / slow).max().item()
         for name, step in [
-            ("forward", lambda f: f(a, b, EPS, ITERS)),
+            ("forward (no grad)", lambda f: f(a, b, EPS, ITERS)),
             ("forward+backward", lambda f: f(a, b, EPS, ITERS).sum().backward()),
         ]:
-            with torch.no_grad() if name == "forward" else torch.enable_grad():
+            with torch.no_grad() if name.startswith("forward (") else torch.enable_grad():
                 t_fast = best_ms(lambda: step(sinkhorn), repeats)
                 t_slow = best_ms(lambda: step(dense_sinkhorn), max(1, repeats // 4))
             speedup = t_slow / t_fast
@@ -70,47 +58,29 @@ def run(repeats: int) -> list[str]:
     return rows
 
 
-def write_section(text: str) -> None:
-    """Replace this benchmark's section of docs/benchmarks.md (or append it), keeping the rest."""
-    doc = DOC.read_text() if DOC.exists() else "# Benchmarks\n"
-    text = text.rstrip("\n") + "\n\n"
-    section = re.compile(rf"^{re.escape(HEADING)}\n.*?(?=^## |\Z)", re.S | re.M)
-    doc = section.sub(lambda _: text, doc) if section.search(doc) else doc.rstrip("\n") + "\n\n" + text
-    DOC.parent.mkdir(parents=True, exist_ok=True)
-    DOC.write_text(doc.rstrip("\n") + "\n")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--threads", type=int, default=torch.get_num_threads())
-    parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument("--threads", type=int, default=torch.get_num_threads(), help="torch CPU threads")
+    parser.add_argument("--repeats", type=int, default=20, help="timed runs of the separable form (dense: ¼)")
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     rows = run(args.repeats)
     command = " ".join(["python", "benchmarks/transport.py", *sys.argv[1:]])
-    machine = (
-        f"{os.cpu_count()}-core CPU ({cpu_name()}), torch {torch.__version__}, "
-        f"{torch.get_num_threads()} thread(s), float32"
-    )
-    text = "\n".join(
+    body = "\n".join(
         [
-            HEADING,
-            "",
-            f"Sinkhorn transport cost at {GRID}×{GRID}, ε = {EPS}, {ITERS} iterations (paper",
-            "settings): `sinkhorn` (separable kernel, two 1-D log-sum-exp passes per half-iteration)",
-            "vs `dense_sinkhorn` (explicit (HW)×(HW) cost matrix), both in `nsp.painter.transport`.",
-            "Times are the best of several runs on a shared machine; rel. diff is",
-            "|separable − dense| / dense.",
+            f"Sinkhorn transport cost at {GRID}×{GRID}, ε = {EPS}, {ITERS} iterations (paper settings):",
+            "`sinkhorn` (separable kernel, two 1-D log-sum-exp passes per half-iteration) vs",
+            "`dense_sinkhorn` (explicit (HW)×(HW) cost matrix), both in `nsp.painter.transport`, float32.",
+            "Times are the best of several runs on a shared machine; rel. diff is |separable − dense| / dense.",
             "",
             f"Command: `{command}`  ",
-            f"Machine: {machine}",
+            f"Machine: {machine()}",
             "",
             *rows,
-            "",
         ]
     )
-    print(text)
-    write_section(text)
+    print(body)
+    write_section("Transport loss", body)
 
 
 if __name__ == "__main__":

@@ -27,12 +27,13 @@ def tiny_trainer(**kwargs) -> L.Trainer:
 
 
 def test_batches_are_engine_renderings_fresh_each_epoch_and_reproducible():
-    brush = get_brush("markerpen")
-    strokes = RandomStrokes(brush, 32, batch_size=4, seed=7)
-    x, fg, alpha = strokes[3]
-    expected_fg, expected_alpha = render(brush, x, 32)
+    data = StrokeData("markerpen", 32, batch_size=4, val_size=4, seed=7)
+    data.setup("fit")
+    x = data.train_set[3]
+    assert torch.equal(x, RandomStrokes(get_brush("markerpen"), 4, seed=7)[3])  # the index alone sets a batch
+    _, fg, alpha = data.on_after_batch_transfer(x, 0)
+    expected_fg, expected_alpha = render(get_brush("markerpen"), x, 32)
     assert torch.equal(fg, expected_fg) and torch.equal(alpha, expected_alpha)
-    assert torch.equal(x, strokes[3][0])  # same index, same strokes: independent of workers and processes
 
     sampler = EpochSampler(5)
     first = list(sampler)

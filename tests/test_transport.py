@@ -15,7 +15,10 @@ SIDE = 12.5 / SIZE  # half side 6.25 px: edges cut pixels at a quarter, away fro
 def tape_canvas(x: int, background: float = 0.0, ink: float = 1.0) -> tuple[torch.Tensor, torch.Tensor]:
     """A square tape stroke centred on pixel (x, 24) of a plain canvas.
 
-    Returns its parameters (1, 8), differentiable, and the canvas (1, 3, H, W) in [0, 1].
+    Antialiased engine, centred on a pixel: the partial pixels on its left and right edges are
+    mirror images, so a small move keeps its area exact to the bit and the paper's zero-gradient
+    example holds exactly. Returns its parameters (1, 8), differentiable, and the canvas
+    (1, 3, H, W) in [0, 1].
     """
     centre = [x / (SIZE - 1), 24 / (SIZE - 1)]
     params = torch.tensor([[*centre, SIDE, SIDE, 0.0, ink, ink, ink]], requires_grad=True)

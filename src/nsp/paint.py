@@ -72,16 +72,34 @@ def paint(cfg: DictConfig) -> dict:
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
-    files = (out, painter.brush, photo.shape[-2:], cfg.canvas, cfg.render_size)
+    canvas = (painter.brush, photo.shape[-2:], cfg.canvas, cfg.render_size)  # what every file shares
     with SummaryWriter(out / "tensorboard") as writer, ProgressBar(cfg.strokes, cfg.progress) as bar:
         painter.callbacks += [TensorBoard(writer), bar]
         try:
             strokes = painter.paint(target, cfg.strokes)
         except BaseException:
-            write_strokes_and_png(*files[:1], painter.brush, painter.strokes(), *files[2:])
+            write_strokes_and_png(out, painter.strokes(), *canvas)
             raise
-    final = write_strokes_and_png(*files[:1], painter.brush, strokes, *files[2:])
-    write_vector_files(*files, cfg.animation_size, cfg.animation_frames)
+    final = write_strokes_and_png(out, strokes, *canvas)
+    write_vector_files(out, strokes, *canvas, cfg.animation_size, cfg.animation_frames)
     metrics = similarity(final, photo) | {"seconds": round(time.perf_counter() - start, 2), "strokes": len(strokes)}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return metrics
+
+
+@hydra.main(config_path="../../conf/paint", config_name="paint", version_base="1.3")
+def main(cfg: DictConfig) -> float:
+    try:
+        metrics = paint(cfg)
+    except BadInput as error:
+        sys.exit(f"error: {error}")
+    except KeyboardInterrupt:
+        print(f"interrupted: strokes.json and final.png of what was painted are in {cfg.output_dir}", file=sys.stderr)
+        sys.exit(130)
+    print(f"painted {metrics['strokes']} strokes in {metrics['seconds']:.1f} s, PSNR {metrics['psnr']:.2f} dB: "
+          f"{cfg.output_dir}")
+    return metrics["psnr"]
+
+
+if __name__ == "__main__":
+    main()

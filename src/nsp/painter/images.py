@@ -64,7 +64,7 @@ def load_image(spec: str) -> Tensor:
         array = np.asarray(Image.alpha_composite(white, rgba).convert("RGB"))
     if array.ndim == 2:  # grayscale built-ins
         array = np.repeat(array[..., None], 3, -1)
-    return torch.from_numpy(np.ascontiguousarray(array[..., :3])).permute(2, 0, 1).float() / 255
+    return torch.from_numpy(np.array(array[..., :3])).permute(2, 0, 1).float() / 255
 
 
 def long_side(height: int, width: int, size: int) -> tuple[int, int]:
@@ -73,9 +73,10 @@ def long_side(height: int, width: int, size: int) -> tuple[int, int]:
     return max(1, round(height * scale)), max(1, round(width * scale))
 
 
-def resize(image: Tensor, size: int) -> Tensor:
-    """(3, H, W) -> (3, h, w) with long side ``size``, antialiased when shrinking."""
-    shape = long_side(*image.shape[-2:], size)
+def resize(image: Tensor, size: int | tuple[int, int]) -> Tensor:
+    """(3, H, W) -> (3, h, w): long side ``size`` (aspect kept), or exactly (h, w) = ``size``;
+    antialiased when shrinking."""
+    shape = long_side(*image.shape[-2:], size) if isinstance(size, int) else tuple(size)
     if shape == tuple(image.shape[-2:]):
         return image
     return F.interpolate(image[None], size=shape, mode="bilinear", antialias=True, align_corners=False)[0].clamp(0, 1)

@@ -15,7 +15,7 @@ from nsp.painter.images import long_side, resize
 SCORE_SIZE = 256  # long side at which psnr and ssim compare the painting with the photo
 
 
-def write_strokes_and_png(out: Path, brush: Brush, strokes: Tensor, aspect: tuple[int, int], background: str,
+def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str,
                           render_size: int) -> Tensor:
     """Write ``strokes.json`` and ``final.png`` (the engine, long side ``render_size``) of strokes
     (N, d) painted on a canvas of ``aspect`` (height, width); returns the image (3, h, w)."""
@@ -27,7 +27,7 @@ def write_strokes_and_png(out: Path, brush: Brush, strokes: Tensor, aspect: tupl
     return final
 
 
-def write_vector_files(out: Path, brush: Brush, strokes: Tensor, aspect: tuple[int, int], background: str,
+def write_vector_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str,
                        render_size: int, animation_size: int, frames: int) -> None:
     """Write ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order)."""
     write_svg(out / "painting.svg", brush.name, strokes, *long_side(*aspect, render_size)[::-1], background)
@@ -40,7 +40,8 @@ def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:
     256-pixel long side (SSIM with Wang et al.'s Gaussian window, σ = 1.5, as torchmetrics)."""
     from skimage.metrics import peak_signal_noise_ratio, structural_similarity  # torchmetrics: +2 s import
 
-    a, b = (resize(image, SCORE_SIZE).permute(1, 2, 0).double().numpy() for image in (painting, photo))
+    shape = long_side(*photo.shape[-2:], SCORE_SIZE)  # the painting's own rounding may differ by a pixel
+    a, b = (resize(image, shape).permute(1, 2, 0).double().numpy() for image in (painting, photo))
     ssim = structural_similarity(a, b, data_range=1.0, channel_axis=2, gaussian_weights=True, sigma=1.5,
                                  use_sample_covariance=False)
     return {"psnr": round(float(peak_signal_noise_ratio(b, a, data_range=1.0)), 3), "ssim": round(float(ssim), 4)}

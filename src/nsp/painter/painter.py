@@ -62,9 +62,9 @@ class Painter:
         optimizer: Callable[[list[Tensor]], Optimizer],
         *,
         grids: Sequence[int] | None = None,
-        max_per_block: int = 10,
+        max_per_block: int = 6,
         overlap: float = 0.25,
-        steps_per_stroke: int = 5,
+        steps_per_stroke: int = 8,
         init_size: tuple[float, float] = (0.1, 0.3),
         background: str = "white",
         generator: torch.Generator | None = None,
@@ -95,6 +95,7 @@ class Painter:
         :meth:`strokes` still returns what was painted.
         """
         _, height, width = target.shape
+        self._done, self._active, self.step = [], None, 0
         color = torch.tensor(parse_color(self.background), dtype=target.dtype)
         canvas = color[:, None, None].expand(3, height, width)
         for index, level in enumerate(self.levels(strokes, height, width)):

@@ -46,7 +46,9 @@ def place_strokes(
     Returns:
         (B, d) strokes in block coordinates, in [0, 1]: positions spread along a random direction
         through the error (a single point for rectangles, the control points of a straight Bézier),
-        sizes uniform in ``size``, a random angle, every colour the target's, transparency 1.
+        a random angle, every colour the target's, transparency 1. The first size is uniform in
+        ``size``; further ones (a rectangle's thickness, a Bézier's end radius) are 30–100 % of it,
+        so strokes start elongated or tapered, like brush strokes.
     """
     batch, _, h, w = canvas.shape
     row, col = largest_error(canvas, target, weights)
@@ -61,10 +63,10 @@ def place_strokes(
     half = (lo + (hi - lo) * draw()) / 2
     x[:, xs] = col[:, None] / max(w - 1, 1) + spread * (half * torch.cos(direction))[:, None]
     x[:, ys] = row[:, None] / max(h - 1, 1) + spread * (half * torch.sin(direction))[:, None]
-    colors = 0
+    colors, first = 0, lo + (hi - lo) * draw()
     for i, kind in enumerate(brush.kinds):
         if kind == "size":
-            x[:, i] = lo + (hi - lo) * draw()
+            x[:, i] = first if i == brush.kinds.index("size") else first * (0.3 + 0.7 * draw())
         elif kind == "angle":
             x[:, i] = draw()
         elif kind == "color":

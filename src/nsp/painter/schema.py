@@ -56,7 +56,9 @@ class PaintConfig:
     animation_size: int = 256  # long side of animation.gif
     animation_frames: int = 50
     seed: int = 0
-    threads: Optional[int] = None  # torch CPU threads; None: torch's default
+    # torch CPU threads. Each step's tensors are small: more threads gain little, and on a busy
+    # machine they wait on each other (3-5× slower measured with two on two shared cores).
+    threads: Optional[int] = 1
     progress: bool = True
     renderer: RendererConfig = field(default_factory=RendererConfig)
     loss: LossConfig = field(default_factory=LossConfig)

@@ -19,36 +19,19 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 from torch import Tensor
-from torch.autograd.function import once_differentiable
 
 _FLOOR = 1e-9  # per-pixel mass added before normalizing, so an empty image is a uniform one
 _TAIL = -80.0  # log-ratio below which a term is raised: exp(-80) is still a normal float32
 
 
-class _LogKernel(torch.autograd.Function):
-    """out[m, i] = LSE_l(h[m, l] + k[i, l]): a kernel applied in the log domain.
+def _lse(x: Tensor, dim: int) -> Tensor:
+    """torch.logsumexp over ``dim``, with every term raised to at least e^-80 of the largest.
 
-    h: (M, n); k: (n', n), constant. Returns (M, n'). By hand rather than torch.logsumexp for two
-    reasons: on CPU, exp of inputs that underflow (below about -87 in float32) takes a slow path
-    costing 5-50×, and ε = 0.01 puts much of the kernel there, so terms below e^-80 of the largest
-    are raised to it (a change under n·e^-80 relative); and the backward is then one batched
-    matmul with the saved softmax weights instead of autograd's chain of elementwise passes.
+    On CPU, exp of inputs that underflow (below about -87 in float32) takes a slow path costing
+    5-50×, and ε = 0.01 puts much of the kernel there; the change is under n·e^-80 relative.
     """
-
-    @staticmethod
-    def forward(ctx, h: Tensor, k: Tensor) -> Tensor:
-        x = h[:, None, :] + k  # (M, n', n)
-        top = x.amax(-1, keepdim=True)
-        x.sub_(top).clamp_(min=_TAIL).exp_()
-        total = x.sum(-1)  # (M, n')
-        ctx.save_for_backward(x, total)  # softmax weights x / total: the derivative of LSE in h
-        return total.log() + top.squeeze(-1)
-
-    @staticmethod
-    @once_differentiable
-    def backward(ctx, grad: Tensor) -> tuple[Tensor, None]:
-        weights, total = ctx.saved_tensors
-        return torch.bmm((grad / total)[:, None, :], weights).squeeze(1), None
+    top = x.amax(dim, keepdim=True).detach()  # any shift gives the same softmax gradient
+    return (x - top).clamp(min=_TAIL).exp().sum(dim).log() + top.squeeze(dim)
 
 
 def _masses(a: Tensor) -> Tensor:
@@ -72,10 +55,8 @@ def _grid_kernel(h: Tensor, kr: Tensor, kc: Tensor) -> Tensor:
 
     h: (B, H, W); kr: (H, H); kc: (W, W). Returns (B, H, W).
     """
-    batch, height, width = h.shape
-    t = _LogKernel.apply(h.reshape(batch * height, width), kc)  # (B·H_k, W_j): columns first
-    t = t.view(batch, height, width).transpose(1, 2).reshape(batch * width, height)
-    return _LogKernel.apply(t, kr).view(batch, width, height).transpose(1, 2)  # (B, H_i, W_j)
+    t = _lse(h[:, :, None, :] + kc, dim=-1)  # (B, H_k, W_j): columns first
+    return _lse(t[:, None, :, :] + kr[None, :, :, None], dim=2)  # (B, H_i, W_j)
 
 
 def sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> Tensor:
@@ -84,7 +65,7 @@ def sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> Tensor:
     Args:
         a, b: (B, H, W) nonnegative masses (normalized here to sum 1; an all-zero image counts
             as uniform).
-        eps: entropic regularization ε, in squared grid units (coordinates in [0, 1]).
+        eps: entropic regularization ε, in the units of C (squared distance, coordinates in [0, 1]).
         iters: Sinkhorn iterations (each one updates u, then v).
 
     Returns:
@@ -121,15 +102,16 @@ def dense_sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> T
     r, c = torch.meshgrid(_coords(height, scale, a), _coords(width, scale, a), indexing="ij")
     points = torch.stack([r.flatten(), c.flatten()], dim=-1)  # (N, 2)
     cost = ((points[:, None, :] - points[None, :, :]) ** 2).sum(-1)  # (N, N)
+    kernel = -cost / eps  # log Gibbs kernel
     log_a, log_b = _masses(a).flatten(1), _masses(b).flatten(1)  # (B, N)
     u = torch.zeros_like(log_a)
     v = torch.zeros_like(log_b)
     for _ in range(iters):
-        u = log_a - _LogKernel.apply(v, -cost / eps)
-        v = log_b - _LogKernel.apply(u, -cost / eps)  # C is symmetric
-    # (B, N, N); raising entries below e^-80 to it keeps exp off its slow path (see _LogKernel)
-    # and changes the cost by under N²·e^-80
-    plan = torch.exp((u[:, :, None] + v[:, None, :] - cost / eps).clamp(min=_TAIL))
+        u = log_a - _lse(v[:, None, :] + kernel, dim=2)
+        v = log_b - _lse(u[:, :, None] + kernel, dim=1)
+    # (B, N, N); raising entries below e^-80 to it keeps exp off its slow path (see _lse) and
+    # changes the cost by under N²·e^-80
+    plan = torch.exp((u[:, :, None] + v[:, None, :] + kernel).clamp(min=_TAIL))
     return (plan * cost).sum((1, 2))
 
 

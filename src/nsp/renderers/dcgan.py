@@ -2,7 +2,8 @@
 
 The paper's shading network (appendix table) is this stack: at S = 128 and width 1 its layers are
 C1 512×4×4/1 (4×4) · C2 512/2 (8×8) · C3 256/2 · C4 128/2 · C5 64/2 · C6 out/2 (128×128).
-A smaller S stops at its resolution: the layer that reaches S draws the outputs.
+A smaller S keeps the output end, as DCGAN generators for small images do: 64 filters before the
+output, doubling towards the input (32 px: 256 (4×4) · 128 (8×8) · 64 (16×16) · out).
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ class ShadingNetwork(nn.Module):
     def __init__(self, in_features: int, out_channels: int, size: int = 128, width: float = 1.0):
         super().__init__()
         check_size(size)
-        hidden = [channels(c, width) for c in PAPER_CHANNELS[: int(math.log2(size // 4))]]
+        hidden = [channels(c, width) for c in PAPER_CHANNELS[-int(math.log2(size // 4)) :]]
         layers: list[nn.Module] = []
         for i, (c_in, c_out) in enumerate(zip([in_features, *hidden], hidden)):
             first = i == 0  # C1 turns the 1×1 input into 4×4; the others double the resolution

@@ -104,7 +104,8 @@ def load_renderer(path, map_location="cpu") -> tuple[nn.Module, str, int]:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
         config, brush = ckpt["hyper_parameters"]["renderer"], ckpt["hyper_parameters"]["brush"]
     except (pickle.UnpicklingError, RuntimeError, KeyError, TypeError, IndexError) as error:
-        raise ValueError(f"{path} is not an nsp renderer checkpoint (train one with `python -m nsp.train`): {error}") from None
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise ValueError(f"{path} is not an nsp renderer checkpoint (train one with `python -m nsp.train`): {reason}") from None
     renderer = build(config, brush)
     prefix = "renderer."
     renderer.load_state_dict({k[len(prefix):]: v for k, v in ckpt["state_dict"].items() if k.startswith(prefix)})

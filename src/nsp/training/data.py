@@ -30,17 +30,16 @@ def draw(brush: Brush, n: int, size: int, gen: torch.Generator, chunk: int = 256
 
 
 class RandomStrokes(Dataset):
-    """Item i is batch i of an endless stream of fresh random strokes, seeded by (seed, 0, i).
+    """Item i is batch i, (batch_size, d), of an endless stream of random strokes, seeded by (seed, 0, i).
 
-    A batch depends on its index only, so the stream is the same whatever the number of workers or
-    processes that render it.
+    A batch depends on its index only, so the stream is the same whatever the number of processes.
     """
 
-    def __init__(self, brush: Brush, size: int, batch_size: int, seed: int):
-        self.brush, self.size, self.batch_size, self.seed = brush, size, batch_size, seed
+    def __init__(self, brush: Brush, batch_size: int, seed: int):
+        self.brush, self.batch_size, self.seed = brush, batch_size, seed
 
-    def __getitem__(self, index: int) -> tuple[Tensor, Tensor, Tensor]:
-        return draw(self.brush, self.batch_size, self.size, generator(self.seed, 0, index))
+    def __getitem__(self, index: int) -> Tensor:
+        return self.brush.sample(self.batch_size, generator=generator(self.seed, 0, index))
 
 
 class EpochSampler(Sampler[int]):
@@ -63,7 +62,9 @@ class EpochSampler(Sampler[int]):
 class StrokeData(L.LightningDataModule):
     """Random training strokes of one brush (fresh every epoch) and a fixed, seeded validation set.
 
-    Batches are ``(x (B, d), foreground (B, 3, S, S), alpha (B, 1, S, S))``.
+    Batches are ``(x (B, d), foreground (B, 3, S, S), alpha (B, 1, S, S))``. Training strokes are
+    rendered once on the training device (after the transfer), so a GPU draws its own data and the
+    loader only samples parameters.
     """
 
     def __init__(
@@ -75,12 +76,11 @@ class StrokeData(L.LightningDataModule):
         val_size: int = 1024,
         val_seed: int = 0,
         seed: int = 0,
-        num_workers: int = 0,
         texture: str | None = None,
     ):
         super().__init__()
         self.brush = get_brush(brush, texture)
-        self.size, self.batch_size, self.num_workers = size, batch_size, num_workers
+        self.size, self.batch_size = size, batch_size
         self.batches = math.ceil(epoch_size / batch_size)
         self.val_size, self.val_seed, self.seed = val_size, val_seed, seed
 
@@ -88,7 +88,7 @@ class StrokeData(L.LightningDataModule):
         if not hasattr(self, "val_set"):
             # Drawn once from its own seed (stream 1; training is stream 0), so every run scores the same strokes.
             self.val_set = TensorDataset(*draw(self.brush, self.val_size, self.size, generator(self.val_seed, 1)))
-        self.train_set = RandomStrokes(self.brush, self.size, self.batch_size, self.seed)
+        self.train_set = RandomStrokes(self.brush, self.batch_size, self.seed)
 
     def train_dataloader(self) -> DataLoader:
         rank, world = (self.trainer.global_rank, self.trainer.world_size) if self.trainer else (0, 1)
@@ -96,9 +96,12 @@ class StrokeData(L.LightningDataModule):
             self.train_set,
             batch_size=None,  # an item is already a batch
             sampler=EpochSampler(self.batches, rank, world),
-            num_workers=self.num_workers,
-            persistent_workers=self.num_workers > 0,
         )
 
     def val_dataloader(self) -> DataLoader:
         return DataLoader(self.val_set, batch_size=self.batch_size)
+
+    def on_after_batch_transfer(self, batch, dataloader_idx: int):
+        if isinstance(batch, Tensor):  # a training batch: strokes only, rendered here on the device
+            return (batch, *render(self.brush, batch, self.size))
+        return batch

@@ -1,0 +1,1 @@
+"""Experiments that are not a plain training or painting run (the paper's transport-loss studies)."""

@@ -1,0 +1,239 @@
+"""The transportation-loss studies (paper §3.5, §4.3), as painting experiments, L1 vs L1 + OT:
+
+- :func:`push` (Figs. 4, 5): a stroke that starts with no overlap with its target stroke. A pixel
+  loss gives its position no gradient there; the transport cost pulls it over.
+- :func:`digits` (Fig. 8): scikit-learn's 8×8 digits, upsampled, each painted with a few marker-pen
+  strokes from the same random start.
+
+Each is ``task(cfg, **arguments) -> metrics`` on ``nsp.paint``'s config: ``brush``, ``canvas``,
+``work_size`` (the square canvas side), ``renderer``, ``loss``, ``optimizer``, ``seed``, ``strokes``,
+``output_dir``; ``conf/paint/experiment/ot_*.yaml`` choose the task and its arguments.
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import torch
+import torch.nn.functional as F
+from hydra.utils import instantiate
+from omegaconf import DictConfig
+from torch import Tensor
+from torch.utils.tensorboard import SummaryWriter
+from torchvision.utils import make_grid
+
+from nsp.brushes import Brush, get_brush
+from nsp.engine import composite, paint_canvas, parse_color, render
+from nsp.io.export import write_png
+from nsp.painter.losses import PaintLoss
+from nsp.painter.renderer import AnalyticRenderer, load_neural
+
+ON_TARGET = 0.05  # a pushed stroke whose centre ends this close to its target's (canvas widths) converged
+
+
+def setup(cfg: DictConfig) -> tuple[Brush, object, PaintLoss, Tensor]:
+    """The brush, the painter's renderer and loss, and the blank canvas colour (3,) of ``cfg``."""
+    brush = get_brush(cfg.brush.name, cfg.brush.texture)
+    if cfg.renderer.name == "analytic":
+        renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
+    else:
+        renderer = load_neural(cfg.renderer.checkpoint, brush)
+    background = parse_color(cfg.canvas)
+    loss = PaintLoss(cfg.loss.l1, cfg.loss.ot, cfg.loss.ot_grid, cfg.loss.ot_eps, cfg.loss.ot_iters, background)
+    return brush, renderer, loss, torch.tensor(background)
+
+
+def centre(alpha: Tensor) -> Tensor:
+    """(B, 1, H, W) coverage -> (B, 2) its centre of mass (x, y), in canvas units (pixel p at p/(W−1))."""
+    height, width = alpha.shape[-2:]
+    ys = torch.linspace(0, 1, height)[:, None]
+    xs = torch.linspace(0, 1, width)[None, :]
+    mass = alpha[:, 0].sum((-2, -1)).clamp_min(1e-8)  # a vanished stroke sits at (0, 0) rather than NaN
+    return torch.stack([(alpha[:, 0] * xs).sum((-2, -1)) / mass, (alpha[:, 0] * ys).sum((-2, -1)) / mass], -1)
+
+
+def position_error(brush: Brush, x: Tensor, goal: Tensor, side: int) -> Tensor:
+    """(B,) distance between the centres of strokes x (B, d) and goal (B, d), as the engine draws them."""
+    return (centre(render(brush, x, side)[1]) - centre(render(brush, goal, side)[1])).norm(dim=-1)
+
+
+def shift(brush: Brush, x: Tensor, offset: Tensor) -> Tensor:
+    """Strokes x (B, d) moved by offset (B, 2) (canvas units): every x-kind and y-kind parameter."""
+    moved = x.clone()
+    for index, kind in enumerate(brush.kinds):
+        if kind in ("x", "y"):
+            moved[:, index] += offset[:, 0 if kind == "x" else 1]
+    return moved
+
+
+def push_pairs(brush: Brush, trials: int, side: int, gap: float, size: tuple[float, float], background: Tensor,
+               generator: torch.Generator) -> tuple[Tensor, Tensor]:
+    """``trials`` (target, start) stroke pairs (trials, d) each: the start is the target moved ``gap``
+    canvas widths in a random direction, inside the canvas and not overlapping it.
+
+    Sizes lie in ``size`` (fractions of the canvas); colours lie at least halfway from the canvas
+    colour ``background`` (3,) to its opposite, so every stroke carries transport mass; alpha is 1.
+    """
+    colors = [i for i, kind in enumerate(brush.kinds) if kind == "color"]
+    targets, starts = [], []
+    while len(targets) < trials:
+        x = brush.sample(64, generator=generator)
+        for index, kind in enumerate(brush.kinds):
+            if kind == "size":
+                x[:, index] = size[0] + (size[1] - size[0]) * x[:, index]
+            elif kind == "color":
+                channel = background[colors.index(index) % 3]
+                x[:, index] = channel + (1 - 2 * channel) * (0.5 + 0.5 * x[:, index])
+            elif kind == "alpha":
+                x[:, index] = 1.0
+        angle = 2 * torch.pi * torch.rand(64, generator=generator)
+        start = shift(brush, x, gap * torch.stack([angle.cos(), angle.sin()], -1))
+        positions = [i for i, kind in enumerate(brush.kinds) if kind in ("x", "y")]
+        inside = ((start[:, positions] > 0.05) & (start[:, positions] < 0.95)).all(-1)
+        overlap = (render(brush, x, side)[1] * render(brush, start.clamp(0, 1), side)[1]).sum((1, 2, 3))
+        for keep in torch.nonzero(inside & (overlap == 0)).flatten().tolist():
+            targets.append(x[keep])
+            starts.append(start[keep])
+    return torch.stack(targets[:trials]), torch.stack(starts[:trials])
+
+
+def run_task(out: Path, steps: int, x: Tensor, loss: PaintLoss, optimizer, draw, target: Tensor,
+             watch=None, every: int = 10) -> list[Tensor]:
+    """Optimize strokes x (requires grad) for ``steps`` steps so ``draw(x)`` (B, 3, s, s) matches target.
+
+    Logs the loss terms per step to TensorBoard under ``out`` and ``watch(x) -> {name: value}`` every
+    ``every`` steps; returns the canvases at steps 0, ¼, ½, ¾ and the end (for the figures).
+    """
+    frames = []
+    marks = {round(steps * f) for f in (0, 0.25, 0.5, 0.75, 1)}
+    with SummaryWriter(out / "tensorboard") as writer:
+        for step in range(steps + 1):
+            canvas = draw(x)
+            if step in marks:
+                frames.append(canvas.detach())
+            if watch is not None and (step % every == 0 or step == steps):
+                for name, value in watch(x.detach()).items():
+                    writer.add_scalar(name, value, step)
+            if step == steps:
+                break
+            losses = loss(canvas, target)
+            optimizer.zero_grad()
+            losses["total"].backward()
+            optimizer.step()
+            with torch.no_grad():
+                x.clamp_(0, 1)
+            for name, value in losses.items():
+                writer.add_scalar(f"loss/{name}", float(value.detach()), step + 1)
+    return frames
+
+
+def psnr(a: Tensor, b: Tensor) -> Tensor:
+    """(B, 3, H, W) pairs in [0, 1] -> (B,) PSNR in dB."""
+    return -10 * torch.log10(((a - b) ** 2).mean((1, 2, 3)).clamp_min(1e-10))
+
+
+def push(cfg: DictConfig, trials: int = 8, steps: int = 300, gap: float = 0.45,
+         size: tuple[float, float] = (0.15, 0.25)) -> dict:
+    """Push strokes onto targets they start beside (paper Figs. 4, 5); ``trials`` independent pairs at once.
+
+    Writes ``push.png`` (a row per trial, four at most: target, then the canvas at steps 0, ¼, ½, ¾,
+    end), TensorBoard curves (``loss/*``, ``position_error``) and ``metrics.json``:
+    ``position_error`` (mean final distance of the stroke's centre from its target's, canvas widths),
+    ``position_error_start``, ``converged`` (fraction ending within 0.05), ``psnr``, ``seconds``.
+    """
+    start_time = time.perf_counter()
+    out = Path(cfg.output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    brush, renderer, loss, background = setup(cfg)
+    side = renderer.resolution(cfg.work_size)
+    generator = torch.Generator().manual_seed(cfg.seed)
+    goal, start = push_pairs(brush, trials, side, gap, tuple(size), background, generator)
+    blank = background[:, None, None].expand(trials, 3, side, side)
+    fg, alpha = render(brush, goal, side)
+    target = alpha * fg + (1 - alpha) * blank  # drawn by the engine, as a photo would be
+
+    def draw(x: Tensor) -> Tensor:
+        fg, alpha = renderer(x, side)
+        return alpha * fg + (1 - alpha) * blank
+
+    x = start.clone().requires_grad_(True)
+    frames = run_task(out, steps, x, loss, instantiate(cfg.optimizer)([x]), draw, target,
+                      watch=lambda x: {"position_error": float(position_error(brush, x, goal, side).mean())})
+    shown = min(trials, 4)
+    rows = torch.stack([target[:shown], *(frame[:shown] for frame in frames)], 1).flatten(0, 1)
+    write_png(out / "push.png", make_grid(rows.clamp(0, 1), nrow=len(frames) + 1, padding=2, pad_value=0.5))
+
+    final = x.detach()
+    error = position_error(brush, final, goal, side)
+    fg, alpha = render(brush, final, side)
+    metrics = {
+        "position_error": round(float(error.mean()), 4),
+        "position_error_start": round(float(position_error(brush, start, goal, side).mean()), 4),
+        "converged": round(float((error < ON_TARGET).float().mean()), 3),
+        "psnr": round(float(psnr(alpha * fg + (1 - alpha) * blank, target).mean()), 3),
+        "seconds": round(time.perf_counter() - start_time, 2),
+        "strokes": trials,
+    }
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    return metrics
+
+
+def digit_targets(count: int, side: int, background: Tensor) -> tuple[Tensor, Tensor]:
+    """The first ``count`` of scikit-learn's digits at side×side: ink masks (count, 1, side, side) in
+    [0, 1] and targets (count, 3, side, side), ink in the canvas colour's opposite."""
+    from sklearn.datasets import load_digits  # imported here: slow, and only this task needs it
+
+    images = torch.from_numpy(load_digits().images[:count]).float()[:, None] / 16
+    mask = F.interpolate(images, size=(side, side), mode="bilinear", align_corners=False).clamp(0, 1)
+    ink = 1 - background
+    return mask, background[:, None, None] * (1 - mask) + ink[:, None, None] * mask
+
+
+def digits(cfg: DictConfig, count: int = 10, steps: int = 300, init_size: tuple[float, float] = (0.1, 0.3)) -> dict:
+    """Paint ``count`` digits with ``cfg.strokes`` strokes each (paper Fig. 8).
+
+    Every digit starts from the same seeded random strokes whatever the loss: positions uniform,
+    sizes in ``init_size``, the ink's colour, opaque; all parameters are then optimized jointly.
+    Writes ``digits.png`` (targets above, paintings by the engine below), TensorBoard curves and
+    ``metrics.json``: ``psnr`` (mean over digits), ``iou`` (mean intersection over union of the
+    painted and the target ink, each thresholded at half ink), ``seconds``, ``strokes``.
+    """
+    start_time = time.perf_counter()
+    out = Path(cfg.output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    brush, renderer, loss, background = setup(cfg)
+    side = renderer.resolution(cfg.work_size)
+    mask, target = digit_targets(count, side, background)
+    k = cfg.strokes
+    x0 = brush.sample(count * k, generator=torch.Generator().manual_seed(cfg.seed))
+    for index, kind in enumerate(brush.kinds):
+        if kind == "size":
+            x0[:, index] = init_size[0] + (init_size[1] - init_size[0]) * x0[:, index]
+        elif kind == "alpha":
+            x0[:, index] = 1.0
+    ink = [i for i, kind in enumerate(brush.kinds) if kind == "color"]
+    x0[:, ink] = (1 - background).repeat(len(ink) // 3)
+    blank = background[:, None, None].expand(count, 3, side, side)
+
+    def draw(x: Tensor) -> Tensor:
+        fg, alpha = renderer(x, side)
+        return composite(fg.view(count, k, 3, side, side), alpha.view(count, k, 1, side, side), blank)
+
+    x = x0.clone().requires_grad_(True)
+    run_task(out, steps, x, loss, instantiate(cfg.optimizer)([x]), draw, target)
+    strokes = x.detach().view(count, k, -1)
+    with torch.no_grad():
+        painted = torch.stack([paint_canvas(brush, s, side, side, cfg.canvas) for s in strokes])
+    ink_painted = (painted - blank).abs().mean(1) / (1 - 2 * background).abs().mean().clamp_min(1e-3) > 0.5
+    ink_target = mask[:, 0] > 0.5
+    iou = (ink_painted & ink_target).sum((1, 2)) / (ink_painted | ink_target).sum((1, 2)).clamp_min(1)
+    write_png(out / "digits.png", make_grid(torch.cat([target, painted]).clamp(0, 1), nrow=count, padding=2, pad_value=0.5))
+    metrics = {
+        "psnr": round(float(psnr(painted, target).mean()), 3),
+        "iou": round(float(iou.mean()), 4),
+        "seconds": round(time.perf_counter() - start_time, 2),
+        "strokes": k,
+    }
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    return metrics

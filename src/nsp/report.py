@@ -1,0 +1,29 @@
+"""``python -m nsp.report DIR``: tables and plots of a Hydra multirun (SPEC §6).
+
+Writes into DIR ``report.md``, ``report.csv`` (one row per job: swept choices, status, final metrics;
+renderer sweeps also get the renderer × brush ``val/psnr`` table beside the paper's) and one
+``<tag>.png`` per TensorBoard curve. Works for ``nsp.train`` and ``nsp.paint`` sweeps alike.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from nsp.reporting import write_report
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m nsp.report", description=__doc__.splitlines()[0])
+    parser.add_argument("dir", type=Path, help="a multirun's sweep dir, e.g. multirun/renderer_comparison/<time>")
+    args = parser.parse_args(argv)
+    try:
+        written = write_report(args.dir)
+    except ValueError as error:
+        sys.exit(f"error: {error}")
+    for path in written:
+        print(path)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,93 @@
+"""Reads the jobs of a Hydra multirun: overrides, final metrics, status and TensorBoard curves."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from omegaconf import OmegaConf
+from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+FAILED = "failed"
+
+
+@dataclass
+class Job:
+    """One job of a multirun.
+
+    Attributes:
+        num: Hydra's job number; for a single run's dir (no number), the dir's name.
+        path: the job's output dir.
+        overrides: key -> value, from ``.hydra/overrides.yaml`` (``+``/``++`` prefixes dropped).
+        metrics: the job's ``metrics.json``; empty when it wrote none.
+        status: ``metrics["status"]`` if given, ``completed`` if not; ``failed`` without ``metrics.json``.
+        curves: TensorBoard scalar tag -> [(step, value)], by step, the last value of a repeated step.
+    """
+
+    num: int | str
+    path: Path
+    overrides: dict[str, str]
+    metrics: dict = field(default_factory=dict)
+    status: str = FAILED
+    curves: dict[str, list[tuple[int, float]]] = field(default_factory=dict)
+
+    def choice(self, key: str):
+        """The value of ``key`` this job ran with: its override, else what its metrics record."""
+        return self.overrides.get(key, self.metrics.get(key))
+
+
+def is_job(path: Path) -> bool:
+    return (path / ".hydra" / "overrides.yaml").is_file()
+
+
+def read_job(path: Path) -> Job:
+    """The job in ``path`` (a dir with ``.hydra/overrides.yaml``)."""
+    lines = OmegaConf.load(path / ".hydra" / "overrides.yaml")
+    # Hydra writes every override as one "key=value" line, sweeps already expanded.
+    overrides = dict(line.lstrip("+").split("=", 1) for line in lines if "=" in line)
+    num = OmegaConf.select(OmegaConf.load(path / ".hydra" / "hydra.yaml"), "hydra.job.num", default=None)
+    job = Job(num=path.name if num is None else int(num), path=path, overrides=overrides, curves=read_curves(path))
+    metrics_file = path / "metrics.json"
+    if metrics_file.is_file():
+        job.metrics = json.loads(metrics_file.read_text())
+        job.status = job.metrics.get("status", "completed")
+    return job
+
+
+def read_curves(path: Path) -> dict[str, list[tuple[int, float]]]:
+    """Every scalar tag of the TensorBoard event files under ``path``, merged over event dirs."""
+    curves: dict[str, dict[int, float]] = {}
+    for events in sorted({f.parent for f in path.rglob("events.out.tfevents.*")}):
+        accumulator = EventAccumulator(str(events), size_guidance={"scalars": 0}).Reload()  # 0: keep all points
+        for tag in accumulator.Tags()["scalars"]:
+            for event in accumulator.Scalars(tag):
+                curves.setdefault(tag, {})[event.step] = event.value
+    return {tag: sorted(points.items()) for tag, points in curves.items()}
+
+
+def collect(sweep: Path) -> list[Job]:
+    """The jobs of the multirun in ``sweep``, by job number (single runs' dirs after them, by name).
+
+    Raises ``ValueError`` naming ``sweep`` when it holds no job.
+    """
+    if not sweep.is_dir():
+        raise ValueError(f"{sweep} is not a directory; expected a Hydra multirun dir (job dirs with .hydra/overrides.yaml)")
+    jobs = sorted(
+        (read_job(p) for p in sweep.iterdir() if p.is_dir() and is_job(p)),
+        key=lambda job: (isinstance(job.num, str), job.num if isinstance(job.num, int) else 0, str(job.num)),
+    )
+    if not jobs:
+        raise ValueError(f"{sweep} holds no Hydra job; expected job dirs with .hydra/overrides.yaml (a `-m` run's sweep dir)")
+    return jobs
+
+
+def swept_keys(jobs: list[Job]) -> list[str]:
+    """Override keys whose value differs between jobs, in the order the first jobs list them."""
+    keys = list(dict.fromkeys(key for job in jobs for key in job.overrides))
+    return [key for key in keys if len({job.overrides.get(key) for job in jobs}) > 1]
+
+
+def common_overrides(jobs: list[Job]) -> dict[str, str]:
+    """Overrides every job shares (the experiment, shortened budgets, …)."""
+    swept = set(swept_keys(jobs))
+    return {key: value for key, value in jobs[0].overrides.items() if key not in swept}

@@ -1,0 +1,144 @@
+"""``python -m nsp.paint``: the files a painting leaves, what an interruption keeps, and bad input."""
+import json
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+from hydra.errors import ConfigCompositionException
+from PIL import Image
+
+from nsp.io.strokes import load_strokes
+from nsp.paint import BadInput, paint
+
+CONF = Path(__file__).parents[1] / "conf" / "paint"
+TINY = ["strokes=12", "work_size=48", "render_size=96", "animation_size=48", "animation_frames=4", "progress=false",
+        "schedule.steps_per_stroke=3", "renderer.block_size=32"]
+
+
+@pytest.fixture
+def photo(tmp_path) -> Path:
+    """A 60×40 landscape PNG: a red disc on a blue-green gradient."""
+    y, x = np.mgrid[:40, :60]
+    image = np.stack([x / 60, 0.5 + 0 * x, y / 40], -1)
+    image[(x - 20) ** 2 + (y - 20) ** 2 < 100] = (0.9, 0.1, 0.1)
+    path = tmp_path / "photo.png"
+    Image.fromarray((image * 255).astype(np.uint8)).save(path)
+    return path
+
+
+def config(*overrides: str):
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        return compose("paint", overrides=list(overrides))
+
+
+def test_a_painting_leaves_every_file_valid(photo, tmp_path):
+    out = tmp_path / "run"
+    metrics = paint(config(f"image={photo}", "brush=watercolor", f"output_dir={out}", *TINY))
+
+    assert Image.open(out / "final.png").size == (96, 64)  # long side render_size, the photo's 3:2 kept
+    painting = load_strokes(out / "strokes.json")
+    assert (painting.brush, len(painting.strokes), painting.width, painting.height) == ("watercolor", 12, 96, 64)
+    assert ET.parse(out / "painting.svg").getroot().get("width") == "96"
+    with Image.open(out / "animation.gif") as gif:
+        assert gif.n_frames > 2 and gif.size == (48, 32)
+    assert json.loads((out / "metrics.json").read_text()) == metrics
+    assert set(metrics) == {"psnr", "ssim", "seconds", "strokes"} and metrics["strokes"] == 12
+    assert metrics["psnr"] > 8  # the blank canvas scores 5 dB
+
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    events = EventAccumulator(str(out / "tensorboard")).Reload()
+    assert {"loss/l1", "loss/total"} <= set(events.Tags()["scalars"])
+    assert "canvas" in events.Tags()["images"]
+
+
+def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeypatch):
+    from nsp.painter.callbacks import ProgressBar
+
+    def ctrl_c(self, painter, added):
+        if painter.step > 10:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(ProgressBar, "on_strokes", ctrl_c)
+    out = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        paint(config(f"image={photo}", f"output_dir={out}", *TINY))
+    assert 0 < len(load_strokes(out / "strokes.json").strokes) < 12
+    assert Image.open(out / "final.png").size == (96, 64)
+    assert not (out / "metrics.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [
+        ("image=missing.jpg", "image=missing.jpg: no such file; give a PNG/JPEG path or one of: astronaut"),
+        ("image={notes}", "is not an image"),
+        ("strokes=0", "strokes=0: expected a positive number"),
+        ("canvas=blue-ish", "canvas=blue-ish is not a colour"),
+    ],
+)
+def test_bad_input_is_one_line_and_writes_nothing(override, message, photo, tmp_path):
+    notes = tmp_path / "notes.txt"
+    notes.write_text("not a picture")
+    out = tmp_path / "run"
+    with pytest.raises(BadInput, match=message.replace(".", r"\.")) as error:
+        paint(config(f"image={photo}", override.format(notes=notes), f"output_dir={out}", *TINY[1:]))
+    assert "\n" not in str(error.value)
+    assert not out.exists()
+
+
+def test_misspelt_keys_and_unknown_brushes_fail_at_compose_time():
+    with pytest.raises(ConfigCompositionException, match="strokse"):
+        config("strokse=10")
+    with pytest.raises(ConfigCompositionException, match="oilpaint"):
+        config("brush=oil")
+
+
+def save_checkpoint(path: Path, brush: str) -> Path:
+    """A tiny, untrained renderer saved as ``nsp.train`` saves one."""
+    from nsp.training import RendererModule
+
+    module = RendererModule({"_target_": "nsp.renderers.DualPathway", "size": 32, "width": 0.125}, brush,
+                            optimizer=torch.optim.Adam)
+    torch.save({"state_dict": module.state_dict(), "hyper_parameters": dict(module.hparams)}, path)
+    return path
+
+
+def test_the_neural_renderer_needs_a_checkpoint_of_the_same_brush(photo, tmp_path):
+    checkpoint = save_checkpoint(tmp_path / "watercolor.ckpt", "watercolor")
+    torch.save({"weights": torch.zeros(3)}, tmp_path / "other.ckpt")
+    for path, brush, message in [
+        (checkpoint, "oilpaint", "renders watercolor strokes, not brush=oilpaint"),
+        (tmp_path / "other.ckpt", "watercolor", "is not an nsp renderer checkpoint"),
+    ]:
+        with pytest.raises(BadInput, match=message):
+            paint(config(f"image={photo}", f"brush={brush}", "renderer=neural", f"renderer.checkpoint={path}",
+                         f"output_dir={tmp_path / 'run'}", *TINY))
+    metrics = paint(config(f"image={photo}", "brush=watercolor", "renderer=neural", f"renderer.checkpoint={checkpoint}",
+                           f"output_dir={tmp_path / 'neural'}", *TINY))
+    assert metrics["strokes"] == 12
+
+
+def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "nsp.paint", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_command_line_errors_are_one_line_with_a_nonzero_exit(tmp_path):
+    result = run("image=nowhere.png", f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
+    assert result.returncode != 0
+    assert result.stderr.strip().splitlines() == [
+        "error: image=nowhere.png: no such file; give a PNG/JPEG path or one of: astronaut, chelsea, coffee, "
+        "rocket, flower, china"
+    ]
+    assert {p.name for p in (tmp_path / "run").iterdir()} <= {".hydra", "paint.log"}
+
+
+def test_a_multirun_paints_several_images_in_parallel_processes():
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("paint", return_hydra_config=True)
+    assert cfg.hydra.launcher._target_.endswith("JoblibLauncher") and cfg.hydra.launcher.n_jobs == -1

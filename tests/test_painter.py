@@ -1,0 +1,190 @@
+"""The painter (SPEC §5, paper §3): the progressive schedule, where strokes start, and the search."""
+from functools import partial
+
+import pytest
+import torch
+
+from nsp.brushes import BRUSHES, get_brush
+from nsp.engine import paint_canvas, render
+from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids
+from nsp.painter.losses import PaintLoss
+from nsp.painter.painter import Callback, Painter
+from nsp.painter.placement import place_strokes
+from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
+
+
+def patches(height: int = 32, width: int = 32) -> torch.Tensor:
+    """A target of four flat colour patches on grey: (3, H, W)."""
+    image = torch.full((3, height, width), 0.5)
+    h, w = height // 2, width // 2
+    image[:, :h, :w] = torch.tensor([0.9, 0.1, 0.1])[:, None, None]
+    image[:, h:, w:] = torch.tensor([0.1, 0.2, 0.8])[:, None, None]
+    image[:, :h, w:] = torch.tensor([0.1, 0.7, 0.2])[:, None, None]
+    return image
+
+
+def painter(brush: str = "tape", renderer=None, **options) -> Painter:
+    spec = get_brush(brush)
+    return Painter(
+        spec,
+        renderer or AnalyticRenderer(spec, softness=0.5, block_size=32),
+        PaintLoss(l1=1.0, ot=0.0),
+        partial(torch.optim.RMSprop, lr=0.01),
+        generator=torch.Generator().manual_seed(0),
+        **{"steps_per_stroke": 4, **options},
+    )
+
+
+def l1(p: Painter, strokes: torch.Tensor, target: torch.Tensor) -> float:
+    canvas = paint_canvas(p.brush, strokes, *target.shape[1:], p.background)
+    return float((canvas - target).abs().mean())
+
+
+@pytest.mark.parametrize("strokes", [1, 4, 7, 55, 500, 1001])
+@pytest.mark.parametrize(("height", "width"), [(64, 64), (40, 100), (100, 30)])
+def test_every_block_count_adds_up_to_exactly_the_strokes_asked_for(strokes, height, width):
+    levels = painter(max_per_block=6).levels(strokes, height, width)
+    assert sum(int(level.counts.sum()) for level in levels) == strokes
+    assert all(level.counts.max() - level.counts.min() <= 1 for level in levels)
+
+
+def test_levels_are_the_papers_progression_and_extra_strokes_go_to_the_finest_blocks():
+    assert progressive_grids(495, 512, 512, max_per_block=9) == [1, 2, 3, 4, 5]  # the reference's 495 strokes
+    assert progressive_grids(500, 512, 512, max_per_block=6) == [1, 2, 3, 4, 5, 6]
+    counts = distribute(500, [1, 4, 9, 16, 25])  # 9 each, 5 left over
+    assert [int(c.sum()) for c in counts] == [9, 36, 81, 144, 230]
+    assert grid_shape(3, 100, 200) == (2, 3) and grid_shape(3, 200, 100) == (3, 2)
+
+
+@pytest.mark.parametrize(("height", "width"), [(48, 48), (30, 80), (90, 50)])
+@pytest.mark.parametrize("m", [1, 2, 3])
+def test_blocks_are_square_overlap_and_cover_the_canvas(height, width, m):
+    level = Level.grid(m, height, width, overlap=0.25, counts=torch.ones(1))
+    coverage = level.weights(level.side, torch.zeros(1))  # (B, 1, side, side)
+    assert coverage.shape[-2:] == (level.side, level.side)
+    seen = torch.zeros(height, width)
+    for (y, x), block in zip(level.origins.tolist(), coverage[:, 0]):
+        # block pixels inside the canvas are exactly those the weights mark
+        assert block.sum() == (min(y + level.side, height) - max(y, 0)) * (min(x + level.side, width) - max(x, 0))
+        seen[max(y, 0) : y + level.side, max(x, 0) : x + level.side] += 1
+    assert seen.min() >= 1
+    if m > 1:
+        assert seen.max() >= 2  # neighbours overlap
+
+
+@pytest.mark.parametrize("name", list(BRUSHES))
+@pytest.mark.parametrize("size", [48, 24])  # the block's own pixels, and shrunk to half
+def test_a_stroke_moved_from_its_block_to_the_canvas_lands_in_the_same_place(name, size, generator):
+    brush = get_brush(name)
+    level = Level.grid(3, 96, 120, overlap=0.25, counts=torch.ones(1))
+    x = brush.sample(1, generator)
+    sizes = [i for i, k in enumerate(brush.kinds) if k == "size"]
+    points = [i for i, k in enumerate(brush.kinds) if k in ("x", "y")]
+    x[:, sizes] *= 0.3
+    x[:, points] = 0.25 + 0.5 * x[:, points]  # inside the block
+    block = 4  # the middle one
+    fg, alpha = render(brush, x, size)
+    on_canvas = level.to_canvas(x.expand(level.blocks, 1, -1), brush.kinds, size)[block]
+    canvas = paint_canvas(brush, on_canvas, 96, 120, "black")
+    expected = level.crop(canvas, size)[block]
+    assert (expected - alpha[0] * fg[0]).abs().mean() < 0.02
+
+
+def test_a_new_stroke_starts_on_the_largest_error_in_the_targets_colour():
+    brush = get_brush("oilpaint")
+    target = torch.ones(1, 3, 32, 32)
+    target[0, :, 20:28, 4:12] = torch.tensor([0.2, 0.1, 0.3])[:, None, None]  # darkest: the largest error
+    target[0, :, 2:10, 18:26] = torch.tensor([0.8, 0.7, 0.9])[:, None, None]  # a paler patch
+    x = place_strokes(brush, torch.ones_like(target), target, torch.ones(1, 1, 32, 32), (0.1, 0.3),
+                      torch.Generator().manual_seed(0))
+    col, row = x[0, 0] * 31, x[0, 1] * 31
+    assert 20 <= row <= 27 and 4 <= col <= 11
+    torch.testing.assert_close(x[0, 5:11], torch.tensor([0.2, 0.1, 0.3] * 2))  # head and tail colour
+    assert 0.1 <= x[0, 2] <= 0.3 and x[0, 3] <= x[0, 2]  # elongated: thickness at most the length
+
+
+@pytest.mark.parametrize("name", list(BRUSHES))
+def test_more_strokes_and_more_steps_paint_closer_to_the_target(name):
+    target = patches()
+    few = painter(name).paint(target, 4)
+    many = painter(name).paint(target, 16)
+    assert len(few) == 4 and len(many) == 16
+    assert l1(painter(name), many, target) < l1(painter(name), few, target)
+    unoptimized = painter(name, steps_per_stroke=0).paint(target, 16)
+    assert l1(painter(name), many, target) < l1(painter(name), unoptimized, target)
+
+
+def test_non_square_targets_are_painted_as_they_are():
+    target = patches(24, 56)
+    strokes = painter("tape").paint(target, 12)
+    assert len(strokes) == 12 and 0 <= strokes.min() and strokes.max() <= 1
+    assert l1(painter("tape"), strokes, target) < 0.15
+
+
+def test_same_seed_same_strokes():
+    assert torch.equal(painter("watercolor").paint(patches(), 6), painter("watercolor").paint(patches(), 6))
+
+
+def test_single_schedule_puts_every_stroke_in_one_active_set():
+    p = painter("tape", grids=[1], steps_per_stroke=2)
+    assert len(p.paint(patches(), 5)) == 5 and p.step == 5 * 2
+
+
+def test_only_trainable_parameters_move():
+    colours = list(get_brush("tape").color)
+    # one stroke in each of four blocks: both runs place the same strokes
+    placed = painter("tape", grids=[2], steps_per_stroke=0).paint(patches(), 4)
+    tuned = painter("tape", grids=[2], trainable=colours).paint(patches(), 4)
+    shape = [i for i in range(get_brush("tape").d) if i not in colours]
+    assert torch.equal(placed[:, shape], tuned[:, shape])
+    assert not torch.equal(placed[:, colours], tuned[:, colours])
+
+
+def test_interrupted_painting_keeps_the_strokes_painted_so_far():
+    class Stop(Callback):
+        added = 0
+
+        def on_strokes(self, painter, added):
+            self.added += added
+            if self.added > 6:  # in the middle of level 2
+                raise KeyboardInterrupt
+
+    p = painter("tape", callbacks=[Stop()])
+    with pytest.raises(KeyboardInterrupt):
+        p.paint(patches(), 20)
+    painted = p.strokes()
+    assert len(painted) == p.callbacks[0].added
+    assert 6 < len(painted) < 20 and 0 <= painted.min() and painted.max() <= 1
+
+
+def test_losses_are_weighted_and_the_transport_term_is_optional():
+    canvas, target = torch.rand(2, 3, 16, 16), torch.rand(2, 3, 16, 16)
+    only_l1 = PaintLoss(l1=1.0, ot=0.0)(canvas, target)
+    both = PaintLoss(l1=1.0, ot=0.1, grid=8)(canvas, target)
+    assert set(only_l1) == {"l1", "total"} and set(both) == {"l1", "ot", "total"}
+    torch.testing.assert_close(both["total"], both["l1"] + 0.1 * both["ot"])
+    extra = PaintLoss(l1=1.0, ot=0.0, extra={"style": (0.5, lambda c: c.mean())})(canvas, target)
+    torch.testing.assert_close(extra["total"], extra["l1"] + 0.5 * canvas.mean())
+
+
+class EngineNetwork(torch.nn.Module):
+    """Stands in for a trained renderer: the soft engine at a fixed 24×24."""
+
+    def __init__(self, brush):
+        super().__init__()
+        self.brush = brush
+
+    def forward(self, x):
+        return render(self.brush, x, 24, softness=0.5)
+
+
+def test_a_neural_renderer_paints_blocks_at_its_own_size():
+    brush = get_brush("tape")
+    sizes = []
+    network = EngineNetwork(brush)
+    network.register_forward_hook(lambda module, args, out: sizes.append(out[0].shape[-1]))
+    p = painter("tape", renderer=NeuralRenderer(network, 24))
+    strokes = p.paint(patches(48, 48), 10)
+    assert len(strokes) == 10 and set(sizes) == {24}
+    unoptimized = painter("tape", steps_per_stroke=0).paint(patches(48, 48), 10)
+    assert l1(p, strokes, patches(48, 48)) < l1(p, unoptimized, patches(48, 48))
