@@ -49,8 +49,9 @@ def paint_once(brush: str, strokes: int, out: Path) -> dict:
     return json.loads((out / "metrics.json").read_text()) | {"wall": wall}
 
 
-def seconds_per_step(renderer, brush_name: str, steps: int = 4) -> float:
-    """One level of 25 blocks × 6 strokes at ``steps`` steps per stroke: seconds per optimizer step."""
+def seconds_per_step(renderer, brush_name: str, steps: int = 4) -> tuple[float, int]:
+    """One level of 5×5 blocks × 6 strokes on the 256-px astronaut at ``steps`` steps per stroke:
+    seconds per optimizer step, and the block side in pixels the renderer works at."""
     brush = get_brush(brush_name)
     target = resize(load_image("astronaut"), 256)
     painter = Painter(brush, renderer, PaintLoss(1.0, 0.0), partial(torch.optim.RMSprop, lr=0.003), grids=[5],
@@ -58,7 +59,7 @@ def seconds_per_step(renderer, brush_name: str, steps: int = 4) -> float:
     painter.paint(target, 25)  # warm-up: first-call costs (the optimizer's imports, the texture)
     start = time.perf_counter()
     painter.paint(target, 150)
-    return (time.perf_counter() - start) / painter.step
+    return (time.perf_counter() - start) / painter.step, renderer.resolution(painter.levels(150, 256, 256)[0].side)
 
 
 def main() -> None:
@@ -77,11 +78,13 @@ def main() -> None:
                 print(rows[-1], flush=True)
 
     steps = ["| renderer | block pixels | s / step |", "|---|---:|---:|"]
-    analytic = AnalyticRenderer(get_brush("oilpaint"), softness=0.5, block_size=64)
-    steps.append(f"| analytic (soft engine) | 52 | {seconds_per_step(analytic, 'oilpaint'):.3f} |")
+    renderers = [("analytic (soft engine)", AnalyticRenderer(get_brush("oilpaint"), softness=0.5, block_size=64))]
     for size in (32, 64, 128):
         network = build({"_target_": "nsp.renderers.DualPathway", "size": size, "width": 1.0}, "oilpaint")
-        steps.append(f"| neural (dual, width 1) | {size} | {seconds_per_step(NeuralRenderer(network, size), 'oilpaint'):.3f} |")
+        renderers.append(("neural (dual, width 1)", NeuralRenderer(network, size)))
+    for name, renderer in renderers:
+        seconds, pixels = seconds_per_step(renderer, "oilpaint")
+        steps.append(f"| {name} | {pixels} | {seconds:.3f} |")
         print(steps[-1], flush=True)
 
     body = "\n".join([

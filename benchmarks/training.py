@@ -62,11 +62,13 @@ def data_rate(brush: str, steps: int, repeats: int) -> float:
     data.setup("fit")
     loader = data.train_dataloader()
 
-    def draw():
-        for _, x in zip(range(steps), loader):
-            data.on_after_batch_transfer(x, 0)  # where the engine renders the batch
+    batches = 4 * steps  # long enough that the loader's prefetched batches do not count
 
-    return best_rate(draw, steps * cfg.data.batch_size, repeats)
+    def draw():
+        for _, x in zip(range(batches), loader):
+            data.on_after_batch_transfer(x, 0)  # renders here only with data.render_on_device
+
+    return best_rate(draw, batches * cfg.data.batch_size, repeats)
 
 
 def step_rate(renderer: str, brush: str, steps: int, repeats: int) -> tuple[float, int]:
@@ -90,12 +92,12 @@ def step_rate(renderer: str, brush: str, steps: int, repeats: int) -> tuple[floa
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--threads", type=int, default=torch.get_num_threads())
+    parser.add_argument("--threads", type=int, default=None, help="training threads; default: the preset's")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--steps", type=int, default=10, help="batches per timed call")
     args = parser.parse_args()
-    torch.set_num_threads(args.threads)
     cfg = default_config()
+    torch.set_num_threads(args.threads or cfg.threads or torch.get_num_threads())
     renderers = sorted(p.stem for p in (CONF / "renderer").glob("*.yaml"))
 
     data_rows = ["| brush | datamodule strokes/s |", "|---|---:|"]
@@ -113,9 +115,10 @@ def main() -> None:
     text = "\n".join([
         HEADING,
         "",
-        f"Default preset: {cfg.model.size} px, width {cfg.model.width}, batch {cfg.data.batch_size}. Datamodule:",
-        "training batches sampled and drawn by the vector engine (antialiased, in the training process, as",
-        "`python -m nsp.train` does); training step: forward, backward and Adam step on a watercolor batch.",
+        f"Default preset: {cfg.model.size} px, width {cfg.model.width}, batch {cfg.data.batch_size}, "
+        f"{cfg.data.num_workers} loader process(es). Datamodule: training",
+        "batches sampled and drawn (antialiased) by the vector engine in the loader, as `python -m nsp.train`",
+        "does; training step: forward, backward and Adam step on a watercolor batch, in the training process.",
         "Rates are the best of several timed runs on a shared machine.",
         "",
         f"Command: `{command}`  ",

@@ -1,5 +1,6 @@
 """``python -m nsp.paint``: the files a painting leaves, what an interruption keeps, and bad input."""
 import json
+import re
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -80,13 +81,14 @@ def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeyp
         ("image={notes}", "is not an image"),
         ("strokes=0", "strokes=0: expected a positive number"),
         ("canvas=blue-ish", "canvas=blue-ish is not a colour"),
+        ("schedule.init_size=[0.5,0.1]", "schedule.init_size=[0.5, 0.1]: expected [low, high]"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(override, message, photo, tmp_path):
     notes = tmp_path / "notes.txt"
     notes.write_text("not a picture")
     out = tmp_path / "run"
-    with pytest.raises(BadInput, match=message.replace(".", r"\.")) as error:
+    with pytest.raises(BadInput, match=re.escape(message)) as error:
         paint(config(f"image={photo}", override.format(notes=notes), f"output_dir={out}", *TINY[1:]))
     assert "\n" not in str(error.value)
     assert not out.exists()
@@ -136,6 +138,12 @@ def test_command_line_errors_are_one_line_with_a_nonzero_exit(tmp_path):
         "rocket, flower, china"
     ]
     assert {p.name for p in (tmp_path / "run").iterdir()} <= {".hydra", "paint.log"}
+
+    result = run("-m", "brush=tape,oil", f"hydra.sweep.dir={tmp_path / 'sweep'}", cwd=tmp_path)
+    assert result.returncode != 0 and not (tmp_path / "sweep").exists()
+    assert result.stderr.strip().splitlines() == [
+        "error: brush=oil: no such brush; expected one of: oilpaint, watercolor, markerpen, tape"
+    ]
 
 
 def test_a_multirun_paints_several_images_in_parallel_processes():

@@ -26,14 +26,21 @@ def tiny_trainer(**kwargs) -> L.Trainer:
     )
 
 
-def test_batches_are_engine_renderings_fresh_each_epoch_and_reproducible():
-    data = StrokeData("markerpen", 32, batch_size=4, val_size=4, seed=7)
-    data.setup("fit")
-    x = data.train_set[3]
-    assert torch.equal(x, RandomStrokes(get_brush("markerpen"), 4, seed=7)[3])  # the index alone sets a batch
-    _, fg, alpha = data.on_after_batch_transfer(x, 0)
-    expected_fg, expected_alpha = render(get_brush("markerpen"), x, 32)
+def test_batches_are_engine_renderings_fresh_each_epoch_and_the_same_whoever_renders_them():
+    brush = get_brush("markerpen")
+    x, fg, alpha = RandomStrokes(brush, 4, seed=7, size=32)[3]
+    expected_fg, expected_alpha = render(brush, x, 32)
     assert torch.equal(fg, expected_fg) and torch.equal(alpha, expected_alpha)
+
+    on_device = StrokeData("markerpen", 32, batch_size=4, epoch_size=12, val_size=4, seed=7, render_on_device=True)
+    in_workers = StrokeData("markerpen", 32, batch_size=4, epoch_size=12, val_size=4, seed=7, num_workers=1)
+    for data in (on_device, in_workers):
+        data.setup("fit")
+    device_batches = [on_device.on_after_batch_transfer(b, 0) for b in on_device.train_dataloader()]
+    worker_batches = [in_workers.on_after_batch_transfer(b, 0) for b in in_workers.train_dataloader()]
+    assert len(device_batches) == 3
+    for ours, theirs in zip(device_batches, worker_batches):
+        assert all(torch.equal(a, b) for a, b in zip(ours, theirs))
 
     sampler = EpochSampler(5)
     first = list(sampler)
@@ -60,7 +67,7 @@ def test_a_few_steps_lower_the_loss_and_the_checkpoint_gives_the_same_renderer(t
     before = trainer.validate(model, datamodule=data, verbose=False)[0]
     trainer.fit(model, datamodule=data)
     after = trainer.validate(model, datamodule=data, verbose=False)[0]
-    assert after["val/loss"] < 0.8 * before["val/loss"]
+    assert after["val/loss"] < 0.9 * before["val/loss"]
     assert after["val/psnr"] == pytest.approx((after["val/psnr_fg"] + after["val/psnr_alpha"]) / 2)
 
     trainer.save_checkpoint(tmp_path / "model.ckpt")

@@ -14,49 +14,85 @@ from pathlib import Path
 import hydra
 import torch
 from hydra.utils import instantiate
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.brushes import get_brush
 from nsp.engine import parse_color
-from nsp.painter import schema  # noqa: F401  (registers ``paint_schema``)
+from nsp.io.export import write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
 from nsp.painter.images import load_image, resize
 from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import similarity, write_strokes_and_png, write_vector_files
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer, load_neural
+from nsp.painter.schema import unknown_choice  # also registers ``paint_schema``
+from nsp.painter.stylize import MODES, stylize
+from nsp.style import StyleLoss, WeightsNotFound, load_style_image
+
+POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_frames", "renderer.softness",
+            "renderer.block_size", "schedule.max_per_block")
 
 
 class BadInput(ValueError):
     """A value the painting cannot start with; the message is the one line the user sees."""
 
 
-def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor]:
-    """Check every input and build the painter and the photo (3, H, W); writes nothing.
+def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
+    """Check every input; build the painter, the photo (3, H, W) and the style loss (``None``
+    without ``style.image``); writes nothing.
 
     Raises :class:`BadInput` naming the value and what is valid.
     """
-    for key in ("strokes", "render_size", "work_size", "animation_size", "animation_frames"):
-        if cfg[key] <= 0:
-            raise BadInput(f"{key}={cfg[key]}: expected a positive number")
+    for key in POSITIVE:
+        if OmegaConf.select(cfg, key) <= 0:
+            raise BadInput(f"{key}={OmegaConf.select(cfg, key)}: expected a positive number")
+    s = cfg.schedule
+    if s.steps_per_stroke < 0 or s.overlap < 0:
+        raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.overlap={s.overlap}: expected ≥ 0")
+    if len(s.init_size) != 2 or not 0 < s.init_size[0] <= s.init_size[1] <= 1:
+        raise BadInput(f"schedule.init_size={list(s.init_size)}: expected [low, high] with 0 < low ≤ high ≤ 1")
+    if s.grids is not None and (not s.grids or min(s.grids) < 1):
+        raise BadInput(f"schedule.grids={list(s.grids)}: expected blocks per side of each level, e.g. [1, 2, 3]")
     try:
         parse_color(cfg.canvas)
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
         photo = load_image(cfg.image)
         if cfg.renderer.name == "analytic":
             renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
+        elif cfg.renderer.checkpoint is None:
+            raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
         else:
             renderer = load_neural(cfg.renderer.checkpoint, brush)
-    except ValueError as error:
+        style = None
+        if cfg.style.image is not None:
+            if cfg.style.mode not in MODES or cfg.style.steps < 0 or cfg.style.size <= 0:
+                raise BadInput(f"style.mode={cfg.style.mode}, style.steps={cfg.style.steps}, style.size="
+                               f"{cfg.style.size}: expected mode in {', '.join(MODES)}, steps ≥ 0, size > 0")
+            style = StyleLoss(load_style_image(cfg.style.image, cfg.style.size), cfg.style.backbone, cfg.style.weights,
+                              cfg.seed, cfg.style.color_weight if cfg.style.mode == "color" else 0.0)
+    except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None
     loss = PaintLoss(cfg.loss.l1, cfg.loss.ot, cfg.loss.ot_grid, cfg.loss.ot_eps, cfg.loss.ot_iters,
                      parse_color(cfg.canvas))
-    s = cfg.schedule
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
                       overlap=s.overlap, steps_per_stroke=s.steps_per_stroke, init_size=s.init_size,
                       background=cfg.canvas, generator=torch.Generator().manual_seed(cfg.seed))
-    return painter, photo
+    return painter, photo, style
+
+
+def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo: torch.Tensor, style: StyleLoss,
+                writer: SummaryWriter) -> torch.Tensor:
+    """The style steps on the painted ``strokes`` (N, d); logs ``style/*`` curves; returns new strokes."""
+    with ProgressBar(cfg.style.steps, cfg.progress, "style steps") as bar:
+        def log(step: int, losses: dict[str, float]) -> None:
+            for name, value in losses.items():
+                writer.add_scalar(f"style/{name}", value, step)
+            bar.advance(1, f"style {losses['style']:.3f}")
+
+        return stylize(painter.brush, strokes, resize(photo, cfg.style.size), painter.loss, style,
+                       instantiate(cfg.optimizer), weight=cfg.style.weight, steps=cfg.style.steps,
+                       mode=cfg.style.mode, background=cfg.canvas, softness=cfg.renderer.softness, callbacks=[log])
 
 
 def paint(cfg: DictConfig) -> dict:
@@ -68,20 +104,27 @@ def paint(cfg: DictConfig) -> dict:
     start = time.perf_counter()
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
-    painter, photo = prepare(cfg)
+    painter, photo, style = prepare(cfg)
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
-    canvas = (painter.brush, photo.shape[-2:], cfg.canvas, cfg.render_size)  # what every file shares
+    shared = (painter.brush, photo.shape[-2:], cfg.canvas, cfg.render_size)  # brush, aspect, background, size
     with SummaryWriter(out / "tensorboard") as writer, ProgressBar(cfg.strokes, cfg.progress) as bar:
         painter.callbacks += [TensorBoard(writer), bar]
         try:
             strokes = painter.paint(target, cfg.strokes)
         except BaseException:
-            write_strokes_and_png(out, painter.strokes(), *canvas)
+            write_strokes_and_png(out, painter.strokes(), *shared)
             raise
-    final = write_strokes_and_png(out, strokes, *canvas)
-    write_vector_files(out, strokes, *canvas, cfg.animation_size, cfg.animation_frames)
+        if style is not None:
+            write_png(out / "style.png", style.image[0])
+            try:
+                strokes = paint_style(cfg, painter, strokes, photo, style, writer)
+            except BaseException:
+                write_strokes_and_png(out, strokes, *shared)  # the unstyled painting
+                raise
+    final = write_strokes_and_png(out, strokes, *shared)
+    write_vector_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames)
     metrics = similarity(final, photo) | {"seconds": round(time.perf_counter() - start, 2), "strokes": len(strokes)}
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return metrics
@@ -102,4 +145,6 @@ def main(cfg: DictConfig) -> float:
 
 
 if __name__ == "__main__":
+    if message := unknown_choice(sys.argv[1:]):
+        sys.exit(message)
     main()

@@ -76,6 +76,7 @@ def push_pairs(brush: Brush, trials: int, side: int, gap: float, size: tuple[flo
     colour ``background`` (3,) to its opposite, so every stroke carries transport mass; alpha is 1.
     """
     colors = [i for i, kind in enumerate(brush.kinds) if kind == "color"]
+    positions = [i for i, kind in enumerate(brush.kinds) if kind in ("x", "y")]
     targets, starts = [], []
     while len(targets) < trials:
         x = brush.sample(64, generator=generator)
@@ -89,7 +90,6 @@ def push_pairs(brush: Brush, trials: int, side: int, gap: float, size: tuple[flo
                 x[:, index] = 1.0
         angle = 2 * torch.pi * torch.rand(64, generator=generator)
         start = shift(brush, x, gap * torch.stack([angle.cos(), angle.sin()], -1))
-        positions = [i for i, kind in enumerate(brush.kinds) if kind in ("x", "y")]
         inside = ((start[:, positions] > 0.05) & (start[:, positions] < 0.95)).all(-1)
         overlap = (render(brush, x, side)[1] * render(brush, start.clamp(0, 1), side)[1]).sum((1, 2, 3))
         for keep in torch.nonzero(inside & (overlap == 0)).flatten().tolist():
@@ -98,7 +98,7 @@ def push_pairs(brush: Brush, trials: int, side: int, gap: float, size: tuple[flo
     return torch.stack(targets[:trials]), torch.stack(starts[:trials])
 
 
-def run_task(out: Path, steps: int, x: Tensor, loss: PaintLoss, optimizer, draw, target: Tensor,
+def optimize(out: Path, steps: int, x: Tensor, loss: PaintLoss, optimizer, draw, target: Tensor,
              watch=None, every: int = 10) -> list[Tensor]:
     """Optimize strokes x (requires grad) for ``steps`` steps so ``draw(x)`` (B, 3, s, s) matches target.
 
@@ -124,7 +124,7 @@ def run_task(out: Path, steps: int, x: Tensor, loss: PaintLoss, optimizer, draw,
             with torch.no_grad():
                 x.clamp_(0, 1)
             for name, value in losses.items():
-                writer.add_scalar(f"loss/{name}", float(value.detach()), step + 1)
+                writer.add_scalar(f"loss/{name}", float(value.detach()), step)  # the loss of the canvas at ``step``
     return frames
 
 
@@ -133,7 +133,7 @@ def psnr(a: Tensor, b: Tensor) -> Tensor:
     return -10 * torch.log10(((a - b) ** 2).mean((1, 2, 3)).clamp_min(1e-10))
 
 
-def push(cfg: DictConfig, trials: int = 8, steps: int = 300, gap: float = 0.45,
+def push(cfg: DictConfig, trials: int = 8, steps: int = 150, gap: float = 0.45,
          size: tuple[float, float] = (0.15, 0.25)) -> dict:
     """Push strokes onto targets they start beside (paper Figs. 4, 5); ``trials`` independent pairs at once.
 
@@ -158,7 +158,7 @@ def push(cfg: DictConfig, trials: int = 8, steps: int = 300, gap: float = 0.45,
         return alpha * fg + (1 - alpha) * blank
 
     x = start.clone().requires_grad_(True)
-    frames = run_task(out, steps, x, loss, instantiate(cfg.optimizer)([x]), draw, target,
+    frames = optimize(out, steps, x, loss, instantiate(cfg.optimizer)([x]), draw, target,
                       watch=lambda x: {"position_error": float(position_error(brush, x, goal, side).mean())})
     shown = min(trials, 4)
     rows = torch.stack([target[:shown], *(frame[:shown] for frame in frames)], 1).flatten(0, 1)
@@ -221,7 +221,7 @@ def digits(cfg: DictConfig, count: int = 10, steps: int = 300, init_size: tuple[
         return composite(fg.view(count, k, 3, side, side), alpha.view(count, k, 1, side, side), blank)
 
     x = x0.clone().requires_grad_(True)
-    run_task(out, steps, x, loss, instantiate(cfg.optimizer)([x]), draw, target)
+    optimize(out, steps, x, loss, instantiate(cfg.optimizer)([x]), draw, target)
     strokes = x.detach().view(count, k, -1)
     with torch.no_grad():
         painted = torch.stack([paint_canvas(brush, s, side, side, cfg.canvas) for s in strokes])

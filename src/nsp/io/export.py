@@ -6,7 +6,6 @@ import io
 import math
 from pathlib import Path
 
-import imageio.v3 as iio
 import numpy as np
 import torch
 from PIL import Image
@@ -46,8 +45,10 @@ def write_gif(
             canvas = composite(fg, alpha, canvas)
             images.append(to_uint8(canvas))
             start = end
-    durations = [1000 * seconds / len(images)] * (len(images) - 1) + [1000]
-    iio.imwrite(path, np.stack(images), extension=".gif", duration=durations, loop=0)
+    durations = [round(1000 * seconds / len(images))] * (len(images) - 1) + [1000]
+    # Fast octree palettes: Pillow's default quantizer takes seconds per frame.
+    palettes = [Image.fromarray(image).quantize(256, Image.Quantize.FASTOCTREE) for image in images]
+    palettes[0].save(path, format="GIF", save_all=True, append_images=palettes[1:], duration=durations, loop=0)
 
 
 def _hex(rgb) -> str:

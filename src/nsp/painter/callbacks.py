@@ -24,12 +24,18 @@ class TensorBoard(Callback):
 
 
 class ProgressBar(Callback):
-    """A rich progress bar over the strokes, with the level and the latest L1."""
+    """A rich progress bar over the strokes (or other ``unit``), with the level and the latest L1."""
 
-    def __init__(self, total: int, enabled: bool = True):
-        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("strokes"),
-                   TimeElapsedColumn(), TimeRemainingColumn())
-        self.progress = Progress(*columns, disable=not enabled)
+    def __init__(self, total: int, enabled: bool = True, unit: str = "strokes"):
+        self.progress = Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn(unit),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            disable=not enabled,
+        )
         self.task = self.progress.add_task("painting", total=total)
         self.level = 1
 
@@ -39,6 +45,9 @@ class ProgressBar(Callback):
 
     def __exit__(self, *exc) -> None:
         self.progress.stop()
+
+    def advance(self, count: int, description: str) -> None:
+        self.progress.update(self.task, advance=count, description=description)
 
     def on_strokes(self, painter: Painter, added: int) -> None:
         self.progress.advance(self.task, added)

@@ -3,13 +3,20 @@ key or a value of the wrong type fails at compose time, naming the key."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Optional
 
+from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
 from hydra.core.config_store import ConfigStore
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import OverrideParseException
 from omegaconf import MISSING
 
 import nsp.config  # noqa: F401  (registers the ``brush`` group)
+from nsp.brushes import BRUSHES
 from nsp.config import BrushConfig
+
+CONF = Path(__file__).resolve().parents[3] / "conf" / "paint"
 
 
 @dataclass
@@ -19,7 +26,7 @@ class RendererConfig:
     name: str = "analytic"
     softness: float = 0.5  # analytic: edge width in block pixels
     block_size: int = 64  # analytic: blocks are optimized at most this many pixels wide
-    checkpoint: Optional[str] = None  # neural: path of the checkpoint
+    checkpoint: Optional[str] = None  # neural: path of the checkpoint (required)
 
 
 @dataclass
@@ -46,6 +53,20 @@ class ScheduleConfig:
 
 
 @dataclass
+class StyleConfig:
+    """Paint in the style of ``image`` (paper §3.6); ``image: null`` paints without style."""
+
+    image: Optional[str] = None
+    mode: str = "full"  # full: every stroke parameter; color: colour parameters only
+    weight: float = 0.5  # β_sty (paper 0.5)
+    steps: int = 200  # paper 200
+    size: int = 128  # long side of the canvas the style steps run on (CPU-friendly)
+    backbone: str = "vgg19"  # vgg19 (ImageNet weights, offline) or random (no weights needed)
+    weights: Optional[str] = None  # VGG-19 state dict; None: the torch hub cache
+    color_weight: float = 2.0  # colour mode: weight of the sliced-Wasserstein colour term
+
+
+@dataclass
 class PaintConfig:
     image: str = "astronaut"  # a PNG/JPEG path, or a built-in photo (see nsp.painter.images.BUILTIN)
     brush: BrushConfig = MISSING
@@ -63,8 +84,31 @@ class PaintConfig:
     renderer: RendererConfig = field(default_factory=RendererConfig)
     loss: LossConfig = field(default_factory=LossConfig)
     schedule: ScheduleConfig = field(default_factory=ScheduleConfig)
+    style: StyleConfig = field(default_factory=StyleConfig)
     optimizer: Any = MISSING  # a ``_partial_`` torch optimizer, from the ``optimizer`` group
     output_dir: str = "${hydra:runtime.output_dir}"
 
 
 ConfigStore.instance().store(name="paint_schema", node=PaintConfig)
+
+
+def unknown_choice(argv: list[str]) -> Optional[str]:
+    """One line naming the first ``group=option`` of a command line whose option does not exist, and
+    the valid ones; None if there is none (Hydra's own message for it spans a dozen lines)."""
+    try:
+        overrides = OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
+    except OverrideParseException:
+        return None
+    for override in overrides:
+        group = override.key_or_group
+        if group == "brush":
+            options = list(BRUSHES)
+        elif (CONF / group).is_dir() and not group.startswith("hydra"):
+            options = sorted(p.stem for p in (CONF / group).glob("*.yaml"))
+        else:
+            continue
+        values = override.sweep_string_iterator() if override.is_sweep_override() else [override.value()]
+        for value in values:
+            if value not in options:
+                return f"error: {group}={value}: no such {group}; expected one of: {', '.join(options)}"
+    return None

@@ -1,5 +1,7 @@
-"""What every renderer family shares: the output sizes and the channel-width multiplier."""
+"""What every renderer family shares: the output sizes, the channel-width multiplier, the input scaling."""
 from __future__ import annotations
+
+from torch import Tensor
 
 SIZES = (32, 64, 128)  # the networks double the resolution layer by layer from 4×4 (DCGAN) or 16×16 (shuffle)
 
@@ -13,3 +15,8 @@ def check_size(size: int) -> None:
 def channels(base: int, width: float) -> int:
     """``base`` channels (the paper's count) scaled by the width multiplier, at least one."""
     return max(1, round(base * width))
+
+
+def centred(x: Tensor) -> Tensor:
+    """Stroke parameters in [0, 1] mapped to [-1, 1]: zero-mean inputs train several times faster."""
+    return 2 * x - 1

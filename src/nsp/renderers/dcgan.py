@@ -13,7 +13,7 @@ import torch
 from torch import Tensor, nn
 
 from nsp.brushes import get_brush
-from nsp.renderers.common import channels, check_size
+from nsp.renderers.common import centred, channels, check_size
 
 PAPER_CHANNELS = (512, 512, 256, 128, 64)  # C1..C5; C6 is the output layer
 
@@ -37,7 +37,7 @@ class ShadingNetwork(nn.Module):
         self.layers = nn.Sequential(*layers)
 
     def forward(self, x: Tensor) -> Tensor:
-        return self.layers(x[:, :, None, None])
+        return self.layers(centred(x)[:, :, None, None])
 
 
 class DCGAN(nn.Module):

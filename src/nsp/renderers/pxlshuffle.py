@@ -13,7 +13,7 @@ import torch
 from torch import Tensor, nn
 
 from nsp.brushes import get_brush
-from nsp.renderers.common import channels, check_size
+from nsp.renderers.common import centred, channels, check_size
 
 PAPER_FEATURES = (512, 1024, 2048)  # F1..F3; F4 is the 16×16 view
 PAPER_STAGES = ((32, 8), (16, 4), (8, 1))  # per stage: conv filters, channels after the shuffle
@@ -48,7 +48,7 @@ class RasterizationNetwork(nn.Module):
         self.convs = nn.Sequential(*convs)
 
     def forward(self, x: Tensor) -> Tensor:
-        return self.convs(self.fc(x).view(-1, self.view, 16, 16))
+        return self.convs(self.fc(centred(x)).view(-1, self.view, 16, 16))
 
 
 class PxlShuffleNet(nn.Module):

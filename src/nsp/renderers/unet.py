@@ -11,7 +11,7 @@ import torch
 from torch import Tensor, nn
 
 from nsp.brushes import get_brush
-from nsp.renderers.common import channels, check_size
+from nsp.renderers.common import centred, channels, check_size
 
 
 class UNet(nn.Module):
@@ -47,7 +47,7 @@ class UNet(nn.Module):
         self.out = nn.ConvTranspose2d(2 * widths[0], 4, 4, 2, 1)
 
     def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:
-        h = x[:, :, None, None].expand(-1, -1, self.size, self.size)
+        h = centred(x)[:, :, None, None].expand(-1, -1, self.size, self.size)
         skips = []
         for layer in self.down:
             h = layer(h)

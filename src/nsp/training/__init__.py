@@ -43,6 +43,8 @@ def train(cfg: DictConfig) -> dict:
     Returns the metrics written to ``metrics.json``.
     """
     L.seed_everything(cfg.seed, workers=True)
+    if cfg.threads:
+        torch.set_num_threads(cfg.threads)
     out = Path(cfg.output_dir)
     data = StrokeData(cfg.brush.name, cfg.model.size, seed=cfg.seed, texture=cfg.brush.texture, **cfg.data)
     model = RendererModule(

@@ -30,16 +30,19 @@ def draw(brush: Brush, n: int, size: int, gen: torch.Generator, chunk: int = 256
 
 
 class RandomStrokes(Dataset):
-    """Item i is batch i, (batch_size, d), of an endless stream of random strokes, seeded by (seed, 0, i).
+    """Item i is batch i of an endless stream of random strokes, seeded by (seed, 0, i).
 
-    A batch depends on its index only, so the stream is the same whatever the number of processes.
+    An item is ``(x, foreground, alpha)`` rendered at ``size``, or the strokes x (B, d) alone when
+    ``size`` is None (rendered later, on the training device). A batch depends on its index only, so
+    the stream is the same whatever the number of workers or processes.
     """
 
-    def __init__(self, brush: Brush, batch_size: int, seed: int):
-        self.brush, self.batch_size, self.seed = brush, batch_size, seed
+    def __init__(self, brush: Brush, batch_size: int, seed: int, size: int | None = None):
+        self.brush, self.batch_size, self.seed, self.size = brush, batch_size, seed, size
 
-    def __getitem__(self, index: int) -> Tensor:
-        return self.brush.sample(self.batch_size, generator=generator(self.seed, 0, index))
+    def __getitem__(self, index: int) -> Tensor | tuple[Tensor, Tensor, Tensor]:
+        x = self.brush.sample(self.batch_size, generator=generator(self.seed, 0, index))
+        return x if self.size is None else (x, *render(self.brush, x, self.size))
 
 
 class EpochSampler(Sampler[int]):
@@ -62,9 +65,9 @@ class EpochSampler(Sampler[int]):
 class StrokeData(L.LightningDataModule):
     """Random training strokes of one brush (fresh every epoch) and a fixed, seeded validation set.
 
-    Batches are ``(x (B, d), foreground (B, 3, S, S), alpha (B, 1, S, S))``. Training strokes are
-    rendered once on the training device (after the transfer), so a GPU draws its own data and the
-    loader only samples parameters.
+    Batches are ``(x (B, d), foreground (B, 3, S, S), alpha (B, 1, S, S))``. Training batches are
+    rendered by ``num_workers`` loader processes, alongside training (CPU), or with
+    ``render_on_device`` on the training device after the transfer (a GPU draws its own data).
     """
 
     def __init__(
@@ -76,11 +79,14 @@ class StrokeData(L.LightningDataModule):
         val_size: int = 1024,
         val_seed: int = 0,
         seed: int = 0,
+        num_workers: int = 0,
+        render_on_device: bool = False,
         texture: str | None = None,
     ):
         super().__init__()
         self.brush = get_brush(brush, texture)
         self.size, self.batch_size = size, batch_size
+        self.num_workers, self.render_on_device = num_workers, render_on_device
         self.batches = math.ceil(epoch_size / batch_size)
         self.val_size, self.val_seed, self.seed = val_size, val_seed, seed
 
@@ -88,7 +94,7 @@ class StrokeData(L.LightningDataModule):
         if not hasattr(self, "val_set"):
             # Drawn once from its own seed (stream 1; training is stream 0), so every run scores the same strokes.
             self.val_set = TensorDataset(*draw(self.brush, self.val_size, self.size, generator(self.val_seed, 1)))
-        self.train_set = RandomStrokes(self.brush, self.batch_size, self.seed)
+        self.train_set = RandomStrokes(self.brush, self.batch_size, self.seed, None if self.render_on_device else self.size)
 
     def train_dataloader(self) -> DataLoader:
         rank, world = (self.trainer.global_rank, self.trainer.world_size) if self.trainer else (0, 1)
@@ -96,12 +102,14 @@ class StrokeData(L.LightningDataModule):
             self.train_set,
             batch_size=None,  # an item is already a batch
             sampler=EpochSampler(self.batches, rank, world),
+            num_workers=self.num_workers,
+            persistent_workers=self.num_workers > 0,
         )
 
     def val_dataloader(self) -> DataLoader:
         return DataLoader(self.val_set, batch_size=self.batch_size)
 
     def on_after_batch_transfer(self, batch, dataloader_idx: int):
-        if isinstance(batch, Tensor):  # a training batch: strokes only, rendered here on the device
+        if isinstance(batch, Tensor):  # strokes only (render_on_device): render them where training runs
             return (batch, *render(self.brush, batch, self.size))
         return batch

@@ -18,6 +18,7 @@ from omegaconf import MISSING, OmegaConf
 import nsp.config  # noqa: F401  (registers the ``brush`` group)
 from nsp.config import BrushConfig
 
+
 @dataclass
 class RendererConfig:
     _target_: str = MISSING
@@ -37,6 +38,8 @@ class DataConfig:
     epoch_size: int = 50_000  # fresh random strokes per epoch (the paper's)
     val_size: int = 1024  # fixed, seeded validation strokes
     val_seed: int = 0  # the validation set does not move with ``seed``, so runs compare
+    num_workers: int = 1  # processes rendering training batches alongside training
+    render_on_device: bool = False  # render training batches on the training device (GPU) instead
 
 
 @dataclass
@@ -91,6 +94,7 @@ class TrainConfig:
     model: ModelConfig = field(default_factory=ModelConfig)
     trainer: TrainerConfig = field(default_factory=TrainerConfig)
     seed: int = 0  # model initialisation and the training strokes
+    threads: Optional[int] = None  # torch intra-op threads of the training process; None = torch's default
     ckpt_path: Optional[str] = None  # resume from this checkpoint
     output_dir: str = "${hydra:runtime.output_dir}"
 

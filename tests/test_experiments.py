@@ -1,0 +1,93 @@
+"""Every experiment file composes with its command's config, sweeps what the paper compares, and runs
+a two-step version in-process; the launcher configs compose."""
+import json
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.core.hydra_config import HydraConfig
+from hydra.utils import instantiate
+
+from nsp.experiments.schema import register
+from nsp.training import train
+from nsp.training.schema import register_configs
+
+CONF = Path(__file__).parents[1] / "conf"
+TINY_TRAIN = [
+    "model.size=32", "model.width=0.125", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16",
+    "trainer.max_steps=2", "trainer.accelerator=cpu", "trainer.num_sanity_val_steps=0", "trainer.log_every_n_steps=1",
+]
+SWEEPS = {
+    "renderer_comparison": ("dcgan,pxlshuffle,unet,dual", "oilpaint,watercolor"),
+    "renderer_comparison_paper": ("dcgan,pxlshuffle,unet,dual", "oilpaint,watercolor"),
+    "renderer_ablation": ("dual_raster,dual_shading,dual", "oilpaint,watercolor"),
+    "renderer_ablation_paper": ("dual_raster,dual_shading,dual", "oilpaint,watercolor"),
+}
+
+
+def compose_with_hydra(root: str, name: str, overrides: list[str]):
+    with initialize_config_dir(str(CONF / root), version_base="1.3"):
+        cfg = compose(name, overrides=overrides, return_hydra_config=True)
+    HydraConfig.instance().set_config(cfg)  # as @hydra.main does: train() reads the runtime choices
+    return cfg
+
+
+def test_experiment_files_are_the_ones_tested():
+    assert {p.stem for p in (CONF / "train" / "experiment").glob("*.yaml")} == set(SWEEPS)
+    assert {p.stem for p in (CONF / "paint" / "experiment").glob("*.yaml")} == {"ot_push", "ot_digits"}
+
+
+@pytest.mark.parametrize("experiment", SWEEPS)
+def test_training_experiment_sweeps_the_papers_renderers_and_runs_two_steps(experiment, tmp_path):
+    register_configs()
+    cfg = compose_with_hydra("train", "train", [f"experiment={experiment}"])
+    assert (cfg.hydra.sweeper.params.renderer, cfg.hydra.sweeper.params.brush) == SWEEPS[experiment]
+    assert cfg.hydra.sweep.dir.startswith(f"multirun/{experiment}/")
+    if experiment.endswith("_paper"):
+        assert (cfg.model.size, cfg.data.epoch_size, cfg.trainer.max_epochs, cfg.trainer.accelerator) == (128, 50_000, 400, "gpu")
+    else:  # one budget for every renderer, in steps, small enough for a CPU
+        assert (cfg.model.size, cfg.trainer.max_steps, cfg.trainer.accelerator) == (32, 1500, "cpu")
+
+    cfg = compose_with_hydra("train", "train", [f"experiment={experiment}", "renderer=dual", "brush=watercolor",
+                                                 *TINY_TRAIN, f"output_dir={tmp_path}"])
+    metrics = train(cfg)
+    assert (metrics["steps"], metrics["status"]) == (2, "completed")
+    assert json.loads((tmp_path / "metrics.json").read_text())["val/psnr"] == metrics["val/psnr"]
+
+
+@pytest.fixture
+def paint_experiment(tmp_path):
+    def compose_paint(experiment: str, *overrides: str):
+        register()
+        return compose_with_hydra("paint", "paint", [f"experiment={experiment}", f"output_dir={tmp_path}", *overrides])
+
+    return compose_paint
+
+
+def test_ot_push_moves_a_stroke_and_records_position_error(paint_experiment, tmp_path):
+    cfg = paint_experiment("ot_push", "loss=l1_ot", "task.steps=2", "task.trials=2")
+    assert (cfg.hydra.sweeper.params.loss, cfg.brush.name) == ("l1,l1_ot", "tape")
+    metrics = instantiate(cfg.task)(cfg)
+    assert json.loads((tmp_path / "metrics.json").read_text()) == metrics
+    assert metrics["position_error_start"] == pytest.approx(0.45, abs=0.02)  # the configured gap
+    assert metrics["position_error"] != metrics["position_error_start"]  # it moved
+    assert (tmp_path / "push.png").is_file() and list((tmp_path / "tensorboard").glob("events.*"))
+
+
+def test_ot_digits_paints_digits_and_scores_the_ink(paint_experiment, tmp_path):
+    cfg = paint_experiment("ot_digits", "loss=l1", "task.steps=2", "task.count=2", "strokes=2")
+    assert (cfg.hydra.sweeper.params.loss, cfg.brush.name, cfg.canvas) == ("l1,l1_ot", "markerpen", "black")
+    metrics = instantiate(cfg.task)(cfg)
+    assert {"psnr", "iou", "seconds"} <= metrics.keys() and 0 <= metrics["iou"] <= 1
+    assert metrics["strokes"] == 2 and (tmp_path / "digits.png").is_file()
+
+
+@pytest.mark.parametrize("root, name", [("train", "train"), ("paint", "paint")])
+@pytest.mark.parametrize("launcher, target", [("joblib", "JoblibLauncher"), ("slurm", "SlurmLauncher")])
+def test_launchers_compose(root, name, launcher, target):
+    register_configs()
+    register()
+    cfg = compose_with_hydra(root, name, [f"hydra/launcher={launcher}"])
+    assert cfg.hydra.launcher._target_.endswith(target)
+    if launcher == "slurm":
+        assert cfg.hydra.launcher.gpus_per_node == 1 and cfg.hydra.launcher.timeout_min > 0
