@@ -31,6 +31,8 @@ test: setup
 
 bench: setup
 	$(BIN)/python benchmarks/engine.py
+	$(BIN)/python benchmarks/transport.py
+	$(BIN)/python benchmarks/training.py
 	$(BIN)/python benchmarks/painter.py
 
 clean:
