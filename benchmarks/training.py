@@ -25,6 +25,8 @@ from nsp.brushes import BRUSHES
 from nsp.training import RendererModule, StrokeData
 from nsp.training.schema import register_configs
 
+from doc import best_seconds  # benchmarks/doc.py, beside this script
+
 ROOT = Path(__file__).resolve().parents[1]
 CONF = ROOT / "conf" / "train"
 DOC = ROOT / "docs" / "benchmarks.md"
@@ -32,15 +34,8 @@ HEADING = "## Renderer training"
 
 
 def best_rate(fn, strokes: int, repeats: int) -> float:
-    """Strokes/s of the fastest of ``repeats`` timed calls after one warm-up (the machine is shared,
-    so the fastest is the least disturbed estimate)."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return strokes / min(times)
+    """Strokes/s of the fastest of ``repeats`` timed calls."""
+    return strokes / best_seconds(fn, repeats)
 
 
 def cpu_name() -> str:

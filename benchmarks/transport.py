@@ -17,22 +17,15 @@ import torch
 from nsp.painter.transport import dense_sinkhorn, sinkhorn
 
 sys.path.insert(0, str(Path(__file__).parent))
-from doc import machine, write_section  # noqa: E402
+from doc import best_seconds, machine, write_section  # noqa: E402
 
 GRID, EPS, ITERS = 48, 0.01, 5
 BATCHES = (1, 4)
 
 
 def best_ms(fn, repeats: int) -> float:
-    """Fastest of ``repeats`` timed calls after one warm-up: the machine is shared, so the min is
-    the least disturbed estimate."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return 1e3 * min(times)
+    """Milliseconds of the fastest of ``repeats`` timed calls."""
+    return 1e3 * best_seconds(fn, repeats)
 
 
 def run(repeats: int) -> list[str]:

@@ -118,6 +118,5 @@ def test_closest_point_on_a_bezier_matches_dense_sampling(generator):
         b = b + (t * t)[..., None] * pts[:, None, 2]
         return torch.sqrt((b[..., 0] - px) ** 2 + (b[..., 1] - py) ** 2)
 
-    dense = torch.linspace(0, 1, 20001)
-    best = torch.stack([dist(torch.full_like(px, s)) for s in dense[::50]]).amin(0)
+    best = torch.stack([dist(torch.full_like(px, s)) for s in torch.linspace(0, 1, 401)]).amin(0)
     assert torch.all(dist(t) <= best + 1e-2)
