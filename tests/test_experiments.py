@@ -8,7 +8,6 @@ from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 
-from nsp.experiments.schema import register
 from nsp.training import train
 from nsp.training.schema import register_configs
 
@@ -58,7 +57,6 @@ def test_training_experiment_sweeps_the_papers_renderers_and_runs_two_steps(expe
 @pytest.fixture
 def paint_experiment(tmp_path):
     def compose_paint(experiment: str, *overrides: str):
-        register()
         return compose_with_hydra("paint", "paint", [f"experiment={experiment}", f"output_dir={tmp_path}", *overrides])
 
     return compose_paint
@@ -86,7 +84,6 @@ def test_ot_digits_paints_digits_and_scores_the_ink(paint_experiment, tmp_path):
 @pytest.mark.parametrize("launcher, target", [("joblib", "JoblibLauncher"), ("slurm", "SlurmLauncher")])
 def test_launchers_compose(root, name, launcher, target):
     register_configs()
-    register()
     cfg = compose_with_hydra(root, name, [f"hydra/launcher={launcher}"])
     assert cfg.hydra.launcher._target_.endswith(target)
     if launcher == "slurm":

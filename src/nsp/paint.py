@@ -132,6 +132,10 @@ def paint(cfg: DictConfig) -> dict:
 
 @hydra.main(config_path="../../conf/paint", config_name="paint", version_base="1.3")
 def main(cfg: DictConfig) -> float:
+    if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits)
+        metrics = instantiate(cfg.task)(cfg)
+        print(f"{cfg.output_dir}: " + ", ".join(f"{key} {value}" for key, value in metrics.items()))
+        return metrics.get("psnr", 0.0)
     try:
         metrics = paint(cfg)
     except BadInput as error:

@@ -86,6 +86,7 @@ class PaintConfig:
     schedule: ScheduleConfig = field(default_factory=ScheduleConfig)
     style: StyleConfig = field(default_factory=StyleConfig)
     optimizer: Any = MISSING  # a ``_partial_`` torch optimizer, from the ``optimizer`` group
+    task: Any = None  # a painting experiment's ``_partial_`` procedure cfg -> metrics (conf/paint/experiment)
     output_dir: str = "${hydra:runtime.output_dir}"
 
 
