@@ -7,7 +7,6 @@ Prints a markdown table and writes it to the "Vector engine" section of docs/ben
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 
 import torch
@@ -16,8 +15,7 @@ from nsp.brushes import BRUSHES
 from nsp.engine import render
 from nsp.engine.raster import rasterize
 
-sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
-from doc import machine, write_section  # noqa: E402
+from doc import machine, write_section  # benchmarks/doc.py, beside this script
 
 # The reference implementation's OpenCV engine on this machine (one core, moderate sizes), strokes/s.
 REFERENCE = {"watercolor": 890, "markerpen": 420, "tape": 8000}
