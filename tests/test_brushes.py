@@ -68,6 +68,36 @@ def test_markerpen_has_square_tips_and_constant_thickness():
     assert torch.all(fg[1][alpha > 0] == 1)
 
 
+def swept_disc_distance(x: torch.Tensor, radius: torch.Tensor, size: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Brute force in float64: min over 2001 t of |B(t) − p| − r(t), and its argmin t, each (S, S)."""
+    pts = x[:6].double().view(3, 2) * (size - 1)
+    t = torch.linspace(0, 1, 2001, dtype=torch.float64)[:, None]
+    curve = (1 - t) ** 2 * pts[0] + 2 * (1 - t) * t * pts[1] + t**2 * pts[2]  # (T, 2)
+    yy, xx = grid(size)
+    sd = torch.cdist(curve, torch.stack([xx.flatten(), yy.flatten()], 1).double()) - radius.double()[:, None]
+    best, at = sd.min(0)
+    return best.view(size, size), t[at, 0].view(size, size)
+
+
+@pytest.mark.parametrize("name", ["watercolor", "markerpen"])
+def test_bezier_strokes_cover_their_swept_discs_without_holes(name, generator):
+    """Random strokes over the whole parameter space (hooks, strong tapers, tiny radii) against brute force."""
+    brush = BRUSHES[name]
+    x = brush.sample(24, generator)
+    x[:, brush.alpha] = 1
+    _, alpha = render(brush, x, S)
+    t = torch.linspace(0, 1, 2001)
+    for stroke, a in zip(x, alpha[:, 0]):
+        if name == "watercolor":
+            sd, _ = swept_disc_distance(stroke, (stroke[6] + (stroke[7] - stroke[6]) * t) * S / 4, S)
+            checked = torch.ones_like(sd, dtype=torch.bool)
+        else:  # the round body between the square tips
+            sd, at = swept_disc_distance(stroke, torch.full_like(t, float(stroke[6]) * S / 4), S)
+            checked = (at > 0.01) & (at < 0.99)
+        assert torch.all(a[checked & (sd < -0.75)] == 1), "a hole inside the stroke"
+        assert torch.all(a[checked & (sd > 0.75)] == 0), "paint outside the stroke"
+
+
 def test_bezier_control_point_bends_the_stroke():
     _, straight = one("markerpen", x0=0.1, y0=0.5, x1=0.5, y1=0.5, x2=0.9, y2=0.5, d=0.1, R=1, G=1, B=1, A=1)
     _, bent = one("markerpen", x0=0.1, y0=0.5, x1=0.5, y1=0.1, x2=0.9, y2=0.5, d=0.1, R=1, G=1, B=1, A=1)

@@ -69,13 +69,13 @@ def _cbrt(v: Tensor) -> Tensor:
     return v.sign() * v.abs().pow(1 / 3)
 
 
-def _closest_on_bezier(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor) -> Tensor:
-    """Parameter t ∈ [0, 1] of the point of B(t) = P0 + 2t·a + t²·b closest to each pixel.
+def _distance_minima(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor) -> tuple[Tensor, Tensor]:
+    """The (up to two) local minima t ∈ [0, 1] of |B(t) − p| for B(t) = P0 + 2t·a + t²·b: (P, N) each.
 
     Setting d|B(t) − p|²/dt = 0 gives the cubic (b·b)t³ + 3(a·b)t² + (2a·a + m·b)t + m·a = 0 with
-    m = P0 − p; it is solved in closed form (Cardano, or the trigonometric form for three real roots,
-    where the middle root is a distance maximum). Nearly straight strokes use the chord instead.
-    p0, a, b: (P, 2); px, py: (P, N). Returns (P, N).
+    m = P0 − p; it is solved in closed form (Cardano where it has one real root, returned twice, or
+    the trigonometric form for three, where the middle root is a distance maximum). Nearly straight
+    strokes use the chord instead. p0, a, b: (P, 2); px, py: (P, N).
     """
     bb, ab, aa = (b * b).sum(1, keepdim=True), (a * b).sum(1, keepdim=True), (a * a).sum(1, keepdim=True)
     straight = bb <= 1e-6 * aa + 1e-12
@@ -94,47 +94,70 @@ def _closest_on_bezier(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor)
     phi = torch.acos((-q_ / (2 * (-p_).clamp(min=1e-30) * z)).clamp(-1, 1)) / 3
     largest = 2 * z * torch.cos(phi) - kx
     smallest = 2 * z * torch.cos(phi - 4 * math.pi / 3) - kx
-    t1 = torch.where(h >= 0, one, largest).clamp(0, 1)
-    t2 = torch.where(h >= 0, one, smallest).clamp(0, 1)
-
-    def dist2(t):
-        qx = mx + t * (2 * a[:, :1] + t * b[:, :1])
-        qy = my + t * (2 * a[:, 1:] + t * b[:, 1:])
-        return qx * qx + qy * qy
-
-    best = torch.where(dist2(t1) <= dist2(t2), t1, t2)
     chord = 2 * a + b  # P2 − P0
-    along = -(mx * chord[:, :1] + my * chord[:, 1:]) / (chord * chord).sum(1, keepdim=True).clamp(min=1e-12)
-    return torch.where(straight, along.clamp(0, 1), best)
+    along = (-(mx * chord[:, :1] + my * chord[:, 1:]) / (chord * chord).sum(1, keepdim=True).clamp(min=1e-12))
+    t1 = torch.where(straight, along, torch.where(h >= 0, one, largest)).clamp(0, 1)
+    t2 = torch.where(straight, along, torch.where(h >= 0, one, smallest)).clamp(0, 1)
+    return t1, t2
+
+
+def _reach(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper) -> Tensor:
+    """φ(t) = |B(t) − p| − taper·t; t broadcasts against px, py and the (P, 1) coefficient columns."""
+    qx = p0[:, :1] + t * (2 * a[:, :1] + t * b[:, :1]) - px
+    qy = p0[:, 1:] + t * (2 * a[:, 1:] + t * b[:, 1:]) - py
+    return torch.sqrt(qx * qx + qy * qy + _EPS) - (0 if taper is None else taper * t)
 
 
 def _newton_step(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper) -> Tensor:
-    """One Newton step on φ(t) = |B(t) − p| − taper·t from t (P, N), kept in [0, 1]."""
+    """One safeguarded Newton step on φ(t) = |B(t) − p| − taper·t from t (P, N), kept in [0, 1].
+
+    The step is taken only where it lowers φ, so a pixel on the curve (where |B − p| has a kink) or
+    an inflection of φ never moves to a worse disc.
+    """
+    taper = None if taper is None else taper[:, None]
     qx = p0[:, :1] + t * (2 * a[:, :1] + t * b[:, :1]) - px
     qy = p0[:, 1:] + t * (2 * a[:, 1:] + t * b[:, 1:]) - py
     dx, dy = 2 * (a[:, :1] + t * b[:, :1]), 2 * (a[:, 1:] + t * b[:, 1:])  # B'(t)
-    norm = torch.sqrt(qx * qx + qy * qy + 1e-8)
-    slope = (qx * dx + qy * dy) / norm - (0 if taper is None else taper[:, None])  # φ'(t)
+    norm = torch.sqrt(qx * qx + qy * qy + _EPS)
+    slope = (qx * dx + qy * dy) / norm - (0 if taper is None else taper)  # φ'(t)
     with torch.no_grad():
         along = (qx * dx + qy * dy) / norm
         curvature = (dx * dx + dy * dy + 2 * (qx * b[:, :1] + qy * b[:, 1:]) - along * along) / norm  # φ''(t)
         # Step from an end only when φ falls inwards (a growing disc reaching past the end).
         s = slope.detach()
         movable = ((t > 0) & (t < 1)) | ((t <= 0) & (s < 0)) | ((t >= 1) & (s > 0))
-        step = movable & (curvature > 1e-3)
-    return torch.where(step, (t - slope / curvature.clamp(min=1e-3)).clamp(0, 1), t)
+    stepped = (t - slope / curvature.clamp(min=1e-3)).clamp(0, 1)
+    with torch.no_grad():
+        better = _reach(stepped, p0, a, b, px, py, taper) < _reach(t, p0, a, b, px, py, taper)
+        accept = movable & (curvature > 1e-3) & better
+    return torch.where(accept, stepped, t)
 
 
-def bezier_nearest(p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None = None) -> Tensor:
+def bezier_nearest(
+    p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None = None, samples: int = 12
+) -> Tensor:
     """t ∈ [0, 1] minimizing φ(t) = |B(t) − p| − taper·t for each pixel: (P, N).
 
     With ``taper`` = r2 − r0 this finds the disc of a swept, linearly growing radius that reaches
-    furthest towards p. Two Newton steps on φ refine the closed-form closest point; the last runs
-    with autograd, so t carries the implicit-function gradient dt/dθ = −(∂φ'/∂θ) / φ''.
+    furthest towards p: φ may then have several local minima, so the closed-form closest point
+    competes with ``samples`` evenly spaced t before refining. Two safeguarded Newton steps on φ
+    refine the start; the last runs with autograd, so t carries the implicit-function gradient
+    dt/dθ = −(∂φ'/∂θ) / φ''.
     p0, p1, p2: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None.
     """
     a, b = p1 - p0, p0 - 2 * p1 + p2
     with torch.no_grad():
-        t = _closest_on_bezier(p0.detach(), a.detach(), b.detach(), px, py)
-        t = _newton_step(t, p0.detach(), a.detach(), b.detach(), px, py, None if taper is None else taper.detach())
+        p0_, a_, b_ = p0.detach(), a.detach(), b.detach()
+        taper_ = None if taper is None else taper.detach()
+        t1, t2 = _distance_minima(p0_, a_, b_, px, py)
+        column = None if taper_ is None else taper_[:, None]
+        reach1, reach2 = _reach(t1, p0_, a_, b_, px, py, column), _reach(t2, p0_, a_, b_, px, py, column)
+        t, reach = torch.where(reach1 <= reach2, t1, t2), torch.minimum(reach1, reach2)
+        if taper_ is not None:
+            grid = torch.linspace(0, 1, samples, device=px.device, dtype=px.dtype)
+            sampled = _reach(grid, p0_[..., None], a_[..., None], b_[..., None], px[..., None], py[..., None],
+                             taper_[:, None, None])  # (P, N, samples)
+            best, k = sampled.min(-1)
+            t = torch.where(best < reach, grid[k], t)
+        t = _newton_step(t, p0_, a_, b_, px, py, taper_)
     return _newton_step(t, p0, a, b, px, py, taper)
