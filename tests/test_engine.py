@@ -55,6 +55,36 @@ def test_same_seed_same_pixels(name):
     assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1]) and not torch.equal(a[1], c[1])
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_coarse_to_fine_culling_keeps_every_touched_tile(name, generator):
+    # At 512 px, 8-px tiles are culled through 128- and 32-px ones; 64-px tiles are culled in one step.
+    brush = BRUSHES[name]
+    x = moderate(brush, 12, generator)
+    fine, coarse = render(brush, x, 512, 384, tile=8), render(brush, x, 512, 384, tile=64)
+    assert torch.allclose(fine[0], coarse[0], atol=1e-6) and torch.allclose(fine[1], coarse[1], atol=1e-6)
+
+
+def test_render_into_a_reused_buffer_overwrites_it(generator):
+    brush = BRUSHES["watercolor"]
+    x = moderate(brush, 5, generator)
+    for height, width in [(32, 48), (30, 45)]:  # whole tiles, and a canvas the tiles overhang
+        expected = torch.cat(render(brush, x, height, width), 1)
+        out = torch.full((5, 4, height, width), 0.5)
+        fg, alpha = render(brush, x, height, width, out=out)
+        assert torch.equal(out, expected)
+        assert fg.data_ptr() == out.data_ptr() and torch.equal(alpha, expected[:, 3:])
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_compiled_engine_matches_eager(name, generator):
+    brush = BRUSHES[name]
+    x = brush.sample(48, generator)
+    eager = torch.cat(render(brush, x, 64), 1)
+    fused = torch.cat(render(brush, x, 64, compile=True), 1)
+    assert (fused - eager).abs().max() < 0.1  # an edge pixel may move by float rounding in the solver
+    assert ((fused - eager).abs() > 1e-4).float().mean() < 1e-4
+
+
 def test_empty_batch_and_far_away_strokes_render_empty():
     brush = BRUSHES["tape"]
     fg, alpha = render(brush, torch.zeros(0, brush.d), 16)

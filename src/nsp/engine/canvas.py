@@ -34,7 +34,7 @@ def paint_canvas(
     softness: float | None = None,
     canvas: Tensor | None = None,
     chunk: int = 256,
-    tile: int = 16,
+    tile: int = 8,
 ) -> Tensor:
     """Composite ``strokes`` (N, d), in order, onto a canvas: (3, H, W) in [0, 1].
 
