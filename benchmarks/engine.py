@@ -1,13 +1,15 @@
-"""Vector engine throughput: strokes/s at 128 px per brush, batch 1 and 256, CPU (and CUDA).
+"""Vector engine throughput: strokes/s at 128 px per brush, batch 1 and 256, eager and compiled, CPU (and CUDA).
 
-    python benchmarks/engine.py [--seconds 3]
+    python benchmarks/engine.py [--repeats 15]
 
-Prints a markdown table and writes it to the "Vector engine" section of docs/benchmarks.md.
+Each rate is the fastest of ``--repeats`` timed calls after a warm-up (the compile happens in the
+warm-up). Prints a markdown table and writes it to the "Vector engine" section of docs/benchmarks.md.
 """
 from __future__ import annotations
 
 import argparse
-import time
+import sys
+from pathlib import Path
 
 import torch
 
@@ -15,8 +17,10 @@ from nsp.brushes import BRUSHES
 from nsp.engine import render
 from nsp.engine.raster import rasterize
 
-from doc import machine, write_section  # benchmarks/doc.py, beside this script
+sys.path.insert(0, str(Path(__file__).parent))
+from doc import best_seconds, machine, write_section  # noqa: E402
 
+SIZE, BATCH = 128, 256
 # The reference implementation's OpenCV engine on this machine (one core, moderate sizes), strokes/s.
 REFERENCE = {"watercolor": 890, "markerpen": 420, "tape": 8000}
 
@@ -29,46 +33,59 @@ def strokes(name: str, n: int, moderate: bool, device) -> torch.Tensor:
     return x
 
 
-def rate(name: str, batch: int, moderate: bool, device, seconds: float, sparse: bool = False) -> float:
-    brush, x = BRUSHES[name], strokes(name, batch, moderate, device)
-    draw = (lambda: rasterize(brush, x, 128, 128)) if sparse else (lambda: render(brush, x, 128))
-    draw()
-    done, start = 0, time.perf_counter()
-    while time.perf_counter() - start < seconds:
-        draw()
-        done += batch
-    if device.type == "cuda":
-        torch.cuda.synchronize()
-    return done / (time.perf_counter() - start)
+def rates(name: str, moderate: bool, compile: bool, device, repeats: int) -> dict[str, float]:
+    """Strokes/s of one brush: batch 1, batch 256 into a reused and a fresh tensor, and tiles only."""
+    brush, x = BRUSHES[name], strokes(name, BATCH, moderate, device)
+    out = torch.empty(BATCH, 4, SIZE, SIZE, device=device)
+    sync = torch.cuda.synchronize if device.type == "cuda" else (lambda: None)
+    calls = {
+        "one": (1, lambda: render(brush, x[:1], SIZE, compile=compile)),
+        "reused": (BATCH, lambda: render(brush, x, SIZE, compile=compile, out=out)),
+        "fresh": (BATCH, lambda: render(brush, x, SIZE, compile=compile)),
+        "tiles": (BATCH, lambda: rasterize(brush, x, SIZE, SIZE, compile=compile)),
+    }
+    return {key: n / best_seconds(lambda: (draw(), sync()), repeats) for key, (n, draw) in calls.items()}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=3.0, help="time per measurement")
+    parser.add_argument("--repeats", type=int, default=15, help="timed calls per measurement")
     args = parser.parse_args()
     devices = [torch.device("cpu")] + ([torch.device("cuda")] if torch.cuda.is_available() else [])
-    rows = ["| device | brush | sizes | batch 1 | batch 256 | batch 256, tiles only | reference (OpenCV, 1 core) "
-            "| batch 256 / reference |", "|---|---|---|---:|---:|---:|---:|---:|"]
+    rows = [
+        f"| device | brush | sizes | engine | batch 1 | batch {BATCH}, reused `out` | batch {BATCH}, fresh tensor "
+        f"| batch {BATCH}, tiles only | reference (OpenCV, 1 core) | reused `out` / reference |",
+        "|---|---|---|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for device in devices:
         for name in BRUSHES:
             for moderate in (True, False):
-                one = rate(name, 1, moderate, device, args.seconds)
-                many = rate(name, 256, moderate, device, args.seconds)
-                tiles = rate(name, 256, moderate, device, args.seconds, sparse=True)
-                ref = REFERENCE.get(name)
-                ratio = f"{many / ref:.1f}×" if ref and moderate else "—"
-                rows.append(
-                    f"| {device.type} | {name} | {'moderate' if moderate else 'uniform'} | {one:,.0f} | {many:,.0f} | {tiles:,.0f} "
-                    f"| {f'{ref:,}' if ref and moderate else '—'} | {ratio} |"
-                )
-                print(rows[-1], flush=True)
+                for compile in (False, True):
+                    r = rates(name, moderate, compile, device, args.repeats)
+                    ref = REFERENCE.get(name) if moderate else None
+                    ratio = f"{r['reused'] / ref:.1f}×" if ref else "—"
+                    rows.append(
+                        f"| {device.type} | {name} | {'moderate' if moderate else 'uniform'} "
+                        f"| {'compiled' if compile else 'eager'} | {r['one']:,.0f} | {r['reused']:,.0f} "
+                        f"| {r['fresh']:,.0f} | {r['tiles']:,.0f} | {f'{ref:,}' if ref else '—'} "
+                        f"| {ratio} |"
+                    )
+                    print(rows[-1], flush=True)
+        out = torch.empty(BATCH, 4, SIZE, SIZE, device=device)
+        zero = BATCH / best_seconds(lambda: out.zero_(), args.repeats)
+        rows.append(f"| {device.type} | — | — | `out.zero_()` alone | | {zero:,.0f} | | | | |")
+        print(rows[-1], flush=True)
     body = (
-        "Strokes rendered per second at 128×128 (foreground + alpha, antialiased), random strokes:\n"
+        f"Strokes rendered per second at {SIZE}×{SIZE} (foreground + alpha, antialiased), random strokes:\n"
         "*uniform* over the whole parameter space (what renderer training draws), *moderate* with sizes\n"
         "in the lower quarter of their range (comparable with the reference's \"moderate stroke sizes\").\n"
-        "*batch 256* returns dense (B, 4, 128, 128) images; *tiles only* stops at the sparse (stroke, tile)\n"
-        "pixels that `paint_canvas` composites (no dense per-stroke image is written).\n\n"
-        f"Command: `python benchmarks/engine.py --seconds {args.seconds:g}`  \nMachine: {machine()}\n\n"
+        f"*batch {BATCH}* returns dense ({BATCH}, 4, {SIZE}, {SIZE}) float32 images, into a reused `out=` tensor\n"
+        f"or a fresh one (a fresh 67 MB tensor is page-faulted in by the kernel on every call); *tiles only*\n"
+        "stops at the sparse (stroke, tile) pixels that `paint_canvas` composites. *compiled* is\n"
+        "`render(..., compile=True)` (TorchInductor; compiled once per brush before timing). The last row\n"
+        "zeroes the dense output and nothing else: memory bandwidth caps any dense renderer there.\n"
+        "Rates are the fastest of several timed calls on a shared machine.\n\n"
+        f"Command: `python benchmarks/engine.py --repeats {args.repeats}`  \nMachine: {machine()}\n\n"
         + "\n".join(rows)
     )
     write_section("Vector engine", body)

@@ -153,11 +153,9 @@ def bezier_nearest(
         column = None if taper_ is None else taper_[:, None]
         reach1, reach2 = _reach(t1, p0_, a_, b_, px, py, column), _reach(t2, p0_, a_, b_, px, py, column)
         t, reach = torch.where(reach1 <= reach2, t1, t2), torch.minimum(reach1, reach2)
-        if taper_ is not None:
-            grid = torch.linspace(0, 1, samples, device=px.device, dtype=px.dtype)
-            sampled = _reach(grid, p0_[..., None], a_[..., None], b_[..., None], px[..., None], py[..., None],
-                             taper_[:, None, None])  # (P, N, samples)
-            best, k = sampled.min(-1)
-            t = torch.where(best < reach, grid[k], t)
+        for k in range(samples if taper_ is not None else 0):  # elementwise, so torch.compile fuses it
+            at = k / (samples - 1)
+            sampled = _reach(at, p0_, a_, b_, px, py, column)
+            t, reach = torch.where(sampled < reach, at, t), torch.minimum(sampled, reach)
         t = _newton_step(t, p0_, a_, b_, px, py, taper_)
     return _newton_step(t, p0, a, b, px, py, taper)
