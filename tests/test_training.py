@@ -50,6 +50,16 @@ def test_batches_are_engine_renderings_fresh_each_epoch_and_the_same_whoever_ren
     assert sorted(ranks[0] + ranks[1]) == first
 
 
+def test_compiled_rendering_draws_the_same_batches():
+    eager = StrokeData("tape", 32, batch_size=8, epoch_size=16, val_size=4, seed=3)
+    fused = StrokeData("tape", 32, batch_size=8, epoch_size=16, val_size=4, seed=3, compile=True)
+    for data in (eager, fused):
+        data.setup("fit")
+    for ours, theirs in zip(eager.train_dataloader(), fused.train_dataloader()):
+        assert torch.equal(ours[0], theirs[0])
+        assert all(torch.allclose(a, b, atol=1e-5) for a, b in zip(ours[1:], theirs[1:]))
+
+
 def test_validation_set_is_fixed_whatever_the_training_seed():
     sets = []
     for seed in (0, 1):

@@ -32,17 +32,18 @@ def draw(brush: Brush, n: int, size: int, gen: torch.Generator, chunk: int = 256
 class RandomStrokes(Dataset):
     """Item i is batch i of an endless stream of random strokes, seeded by (seed, 0, i).
 
-    An item is ``(x, foreground, alpha)`` rendered at ``size``, or the strokes x (B, d) alone when
-    ``size`` is None (rendered later, on the training device). A batch depends on its index only, so
-    the stream is the same whatever the number of workers or processes.
+    An item is ``(x, foreground, alpha)`` rendered at ``size`` (by the compiled engine with
+    ``compile``), or the strokes x (B, d) alone when ``size`` is None (rendered later, on the training
+    device). A batch depends on its index only, so the stream is the same whatever the number of
+    workers or processes.
     """
 
-    def __init__(self, brush: Brush, batch_size: int, seed: int, size: int | None = None):
-        self.brush, self.batch_size, self.seed, self.size = brush, batch_size, seed, size
+    def __init__(self, brush: Brush, batch_size: int, seed: int, size: int | None = None, compile: bool = False):
+        self.brush, self.batch_size, self.seed, self.size, self.compile = brush, batch_size, seed, size, compile
 
     def __getitem__(self, index: int) -> Tensor | tuple[Tensor, Tensor, Tensor]:
         x = self.brush.sample(self.batch_size, generator=generator(self.seed, 0, index))
-        return x if self.size is None else (x, *render(self.brush, x, self.size))
+        return x if self.size is None else (x, *render(self.brush, x, self.size, compile=self.compile))
 
 
 class EpochSampler(Sampler[int]):
@@ -81,12 +82,13 @@ class StrokeData(L.LightningDataModule):
         seed: int = 0,
         num_workers: int = 0,
         render_on_device: bool = False,
+        compile: bool = False,
         texture: str | None = None,
     ):
         super().__init__()
         self.brush = get_brush(brush, texture)
         self.size, self.batch_size = size, batch_size
-        self.num_workers, self.render_on_device = num_workers, render_on_device
+        self.num_workers, self.render_on_device, self.compile = num_workers, render_on_device, compile
         self.batches = math.ceil(epoch_size / batch_size)
         self.val_size, self.val_seed, self.seed = val_size, val_seed, seed
 
@@ -94,7 +96,8 @@ class StrokeData(L.LightningDataModule):
         if not hasattr(self, "val_set"):
             # Drawn once from its own seed (stream 1; training is stream 0), so every run scores the same strokes.
             self.val_set = TensorDataset(*draw(self.brush, self.val_size, self.size, generator(self.val_seed, 1)))
-        self.train_set = RandomStrokes(self.brush, self.batch_size, self.seed, None if self.render_on_device else self.size)
+        size = None if self.render_on_device else self.size
+        self.train_set = RandomStrokes(self.brush, self.batch_size, self.seed, size, self.compile)
 
     def train_dataloader(self) -> DataLoader:
         rank, world = (self.trainer.global_rank, self.trainer.world_size) if self.trainer else (0, 1)
@@ -111,5 +114,5 @@ class StrokeData(L.LightningDataModule):
 
     def on_after_batch_transfer(self, batch, dataloader_idx: int):
         if isinstance(batch, Tensor):  # strokes only (render_on_device): render them where training runs
-            return (batch, *render(self.brush, batch, self.size))
+            return (batch, *render(self.brush, batch, self.size, compile=self.compile))
         return batch
