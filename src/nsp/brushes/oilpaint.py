@@ -16,6 +16,13 @@ from nsp.engine.geometry import box
 _OPAQUE = 0.4  # texture values above this are fully covered with paint
 
 
+@torch.compiler.disable  # ATen's grid_sample beats the compiled one; the texture cache stays in Python
+def sample(texture: Tensor, u: Tensor, v: Tensor) -> Tensor:
+    """Bilinear texture values (P, N) at (u, v) ∈ [0, 1]² (P, N) of a (1, 1, h, w) texture."""
+    grid = torch.stack([2 * u - 1, 2 * v - 1], -1)[:, None]  # (P, 1, N, 2)
+    return F.grid_sample(texture.expand(len(u), -1, -1, -1), grid, align_corners=True)[:, 0, 0]
+
+
 @dataclass(frozen=True, eq=False)
 class OilPaint(Brush):
     texture_path: str | None = None
@@ -49,9 +56,7 @@ class OilPaint(Brush):
         cov = coverage(box(along, across, half_w, half_h))
         u = along / (2 * half_w.clamp(min=0.5))[:, None] + 0.5  # 0 at the head, 1 at the tail
         v = across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5
-        tex = self.texture(x.device, x.dtype, pix.width)
-        grid = torch.stack([2 * u - 1, 2 * v - 1], -1)[:, None]  # (P, 1, N, 2)
-        value = F.grid_sample(tex.expand(x.shape[0], -1, -1, -1), grid, align_corners=True)[:, 0, 0]
+        value = sample(self.texture(x.device, x.dtype, pix.width), u, v)
         alpha = cov * (value / _OPAQUE).clamp(0, 1)
         c0, c2 = x[:, 5:8, None], x[:, 8:11, None]
         color = (c0 + (c2 - c0) * u.clamp(0, 1)[:, None]) * (0.7 + 0.3 * value[:, None])
