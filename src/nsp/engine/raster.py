@@ -6,6 +6,7 @@ are evaluated at once, so a stroke costs only the pixels near it and no Python l
 """
 from __future__ import annotations
 
+import ctypes
 import functools
 import math
 from dataclasses import dataclass
@@ -118,9 +119,9 @@ def rasterize(
     """Evaluate strokes ``x`` (B, d) on the tiles of a ``height``×``width`` canvas they touch.
 
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
-    before ``brush.paint`` shades their pixels. ``compile`` runs these three stages through
-    :func:`compiled`, which fuses each into vectorized loops: several times faster for large
-    batches, after a one-off compile of seconds per brush.
+    before ``brush.paint`` shades their pixels. ``compile`` runs the distance culling and the
+    shading through :func:`compiled`, which fuses each into vectorized loops: several times faster
+    for large batches, after a one-off compile of seconds per brush.
     """
     coverage = antialiased if softness is None else partial(soft, softness=softness)
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
@@ -128,9 +129,9 @@ def rasterize(
     with torch.no_grad():
         # Coarse to fine: on a large canvas, tiles 4× and 16× as wide are culled first.
         sizes = [tile]
-        while sizes[-1] * 16 <= max(width, height):
+        while sizes[-1] * 32 <= max(width, height):
             sizes.append(sizes[-1] * 4)
-        b, t = stage(boxed_tiles)(brush, x.detach(), width, height, sizes[-1], margin).nonzero(as_tuple=True)
+        b, t = boxed_tiles(brush, x.detach(), width, height, sizes[-1], margin).nonzero(as_tuple=True)
         for coarse, size in zip([None] + sizes[:0:-1], sizes[::-1]):
             if coarse is not None:
                 b, t = subtiles(b, t, width, height, coarse, size)
@@ -142,16 +143,17 @@ def rasterize(
     fg, alpha = [], []
     # A pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be recycled
     # by the allocator instead of page-faulted in afresh by every op.
-    for part in torch.arange(len(t), device=x.device).split(max(1, PASS_PIXELS // tile**2)):
-        ox = (t[part] % cols).to(dtype) * tile
-        oy = torch.div(t[part], cols, rounding_mode="floor").to(dtype) * tile
-        px = (ox[:, None, None] + offs[None, None, :]).expand(-1, tile, tile).reshape(len(part), tile * tile)
-        py = (oy[:, None, None] + offs[None, :, None]).expand(-1, tile, tile).reshape(len(part), tile * tile)
-        colour, cover = stage(brush.paint)(x[b[part]], Pixels(px, py, width, height), coverage)
+    step = max(1, PASS_PIXELS // tile**2)
+    for xs, ts in zip(x[b].split(step), t.split(step)):
+        ox = (ts % cols).to(dtype) * tile
+        oy = torch.div(ts, cols, rounding_mode="floor").to(dtype) * tile
+        px = (ox[:, None, None] + offs[None, None, :]).expand(-1, tile, tile).reshape(len(ts), tile * tile)
+        py = (oy[:, None, None] + offs[None, :, None]).expand(-1, tile, tile).reshape(len(ts), tile * tile)
+        colour, cover = stage(brush.paint)(xs, Pixels(px, py, width, height), coverage)
         fg.append(colour)
         alpha.append(cover)
-    if not fg:
-        return Tiles(b, t, x.new_zeros(0, 3, tile * tile), x.new_zeros(0, tile * tile), rows, cols)
+    if len(fg) == 1:  # one pass (split always yields at least one part): nothing to copy
+        return Tiles(b, t, fg[0], alpha[0], rows, cols)
     return Tiles(b, t, torch.cat(fg), torch.cat(alpha), rows, cols)
 
 
@@ -186,10 +188,7 @@ def render(
     tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile)
     rows, cols, n = tiles.rows, tiles.cols, len(x)
     whole = rows * tile == height and cols * tile == width
-    if whole and out is not None:
-        image = out.zero_()
-    else:
-        image = x.new_zeros(n, 4, rows * tile, cols * tile)
+    image = clear(out if whole and out is not None else x.new_empty(n, 4, rows * tile, cols * tile))
     # Copy each tile's pixel rows straight into the image, seen as rows of `tile` floats.
     lines = (tiles.stroke * 4 * rows + torch.div(tiles.tile, cols, rounding_mode="floor")) * tile * cols
     lines = (lines + tiles.tile % cols)[:, None] + torch.arange(tile, device=x.device) * cols  # (P, tile)
@@ -203,6 +202,19 @@ def render(
     elif out is None:
         out = image[..., :height, :width]
     return out[:, :3], out[:, 3:]
+
+
+def clear(image: Tensor) -> Tensor:
+    """Zero ``image`` in place and return it.
+
+    A contiguous CPU tensor goes through C's ``memset``, whose streaming stores clear a buffer of
+    tens of megabytes about twice as fast as ``Tensor.zero_`` on this machine, and leave the caches
+    to the work around it.
+    """
+    if image.device.type == "cpu" and image.is_contiguous() and not image.requires_grad:
+        ctypes.memset(image.data_ptr(), 0, image.numel() * image.element_size())
+        return image
+    return image.zero_()
 
 
 def composite(fg: Tensor, alpha: Tensor, canvas: Tensor) -> Tensor:
