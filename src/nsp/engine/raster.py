@@ -157,6 +157,21 @@ def rasterize(
     return Tiles(b, t, torch.cat(fg), torch.cat(alpha), rows, cols)
 
 
+def write_tiles(segments: Tensor, stroke: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, rows: int, cols: int) -> None:
+    """Copy sparse pairs (as in :class:`Tiles`) into a dense image (B, 4, rows·t, cols·t), in place.
+
+    ``segments`` is the image seen as rows of t floats, (B·4·rows·t·cols, t), so each pair's pixel
+    rows are copied straight to their places.
+    """
+    side = segments.shape[1]
+    plane = rows * side * cols  # segments of one channel
+    lines = ((stroke * 4 * rows + torch.div(tile, cols, rounding_mode="floor")) * side * cols + tile % cols)[:, None]
+    lines = lines + torch.arange(side, device=segments.device) * cols  # (P, t)
+    fg_lines = lines[:, None] + torch.arange(3, device=segments.device)[:, None] * plane  # (P, 3, t)
+    segments.index_copy_(0, fg_lines.flatten(), fg.reshape(-1, side))
+    segments.index_copy_(0, (lines + 3 * plane).flatten(), alpha.reshape(-1, side))
+
+
 def render(
     brush: Brush,
     x: Tensor,
@@ -188,15 +203,9 @@ def render(
     tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile)
     rows, cols, n = tiles.rows, tiles.cols, len(x)
     whole = rows * tile == height and cols * tile == width
-    image = clear(out if whole and out is not None else x.new_empty(n, 4, rows * tile, cols * tile))
-    # Copy each tile's pixel rows straight into the image, seen as rows of `tile` floats.
-    lines = (tiles.stroke * 4 * rows + torch.div(tiles.tile, cols, rounding_mode="floor")) * tile * cols
-    lines = (lines + tiles.tile % cols)[:, None] + torch.arange(tile, device=x.device) * cols  # (P, tile)
-    plane = rows * tile * cols  # rows of one channel
-    segments = image.view(-1, tile)
-    fg_lines = lines[:, None] + torch.arange(3, device=x.device)[:, None] * plane  # (P, 3, tile)
-    segments.index_copy_(0, fg_lines.flatten(), tiles.fg.reshape(-1, tile))
-    segments.index_copy_(0, (lines + 3 * plane).flatten(), tiles.alpha.reshape(-1, tile))
+    image = clear(out) if whole and out is not None else x.new_zeros(n, 4, rows * tile, cols * tile)
+    write = compiled(write_tiles) if compile else write_tiles
+    write(image.view(-1, tile), tiles.stroke, tiles.tile, tiles.fg, tiles.alpha, rows, cols)
     if out is not None and not whole:
         out.copy_(image[..., :height, :width])
     elif out is None:
