@@ -139,10 +139,11 @@ def bezier_nearest(
     """t ∈ [0, 1] minimizing φ(t) = |B(t) − p| − taper·t for each pixel: (P, N).
 
     With ``taper`` = r2 − r0 this finds the disc of a swept, linearly growing radius that reaches
-    furthest towards p: φ may then have several local minima, so the closed-form closest point
-    competes with ``samples`` evenly spaced t before refining. Two safeguarded Newton steps on φ
-    refine the start; the last runs with autograd, so t carries the implicit-function gradient
-    dt/dθ = −(∂φ'/∂θ) / φ''.
+    furthest towards p. φ may then have several local minima (a hooked curve passes a pixel twice; a
+    strong taper lets a far, wide disc win), so both closed-form distance minima compete with
+    ``samples`` evenly spaced t (12 leave no holes in tests/test_brushes.py's brute-force check).
+    Two safeguarded Newton steps on φ refine the winner; the last runs with autograd, so t carries
+    the implicit-function gradient dt/dθ = −(∂φ'/∂θ) / φ''.
     p0, p1, p2: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None.
     """
     a, b = p1 - p0, p0 - 2 * p1 + p2

@@ -1,8 +1,9 @@
 """The batched vector engine: B strokes of one brush -> (foreground, alpha) at any resolution.
 
 The canvas is cut into tiles. A stroke is evaluated only on the tiles it can touch — first its
-bounding box, then the brush's distance bound at each tile centre — and all (stroke, tile) pairs
-are evaluated at once, so a stroke costs only the pixels near it and no Python loop runs over strokes.
+bounding box, then the brush's distance bound at each tile centre, coarse to fine on large
+canvases — and the (stroke, tile) pairs are shaded together in a few large passes, so a stroke
+costs only the pixels near it and no Python loop runs over strokes.
 """
 from __future__ import annotations
 
@@ -10,7 +11,6 @@ import ctypes
 import functools
 import math
 from dataclasses import dataclass
-from functools import partial
 
 import torch
 from torch import Tensor
@@ -123,38 +123,39 @@ def rasterize(
     shading through :func:`compiled`, which fuses each into vectorized loops: several times faster
     for large batches, after a one-off compile of seconds per brush.
     """
-    coverage = antialiased if softness is None else partial(soft, softness=softness)
+    coverage = antialiased if softness is None else functools.partial(soft, softness=softness)
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
     stage = compiled if compile else (lambda fn: fn)
     with torch.no_grad():
-        # Coarse to fine: on a large canvas, tiles 4× and 16× as wide are culled first.
+        # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
         while sizes[-1] * 32 <= max(width, height):
             sizes.append(sizes[-1] * 4)
         b, t = boxed_tiles(brush, x.detach(), width, height, sizes[-1], margin).nonzero(as_tuple=True)
-        for coarse, size in zip([None] + sizes[:0:-1], sizes[::-1]):
+        coarse = None
+        for size in reversed(sizes):
             if coarse is not None:
                 b, t = subtiles(b, t, width, height, coarse, size)
             keep = stage(near_tiles)(brush, x.detach()[b], t, width, height, size, margin)
-            b, t = b[keep], t[keep]
+            b, t, coarse = b[keep], t[keep], size
 
-    rows, cols, dtype = math.ceil(height / tile), math.ceil(width / tile), x.dtype
-    offs = torch.arange(tile, device=x.device, dtype=dtype)
-    fg, alpha = [], []
     # A pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be recycled
     # by the allocator instead of page-faulted in afresh by every op.
     step = max(1, PASS_PIXELS // tile**2)
-    for xs, ts in zip(x[b].split(step), t.split(step)):
-        ox = (ts % cols).to(dtype) * tile
-        oy = torch.div(ts, cols, rounding_mode="floor").to(dtype) * tile
-        px = (ox[:, None, None] + offs[None, None, :]).expand(-1, tile, tile).reshape(len(ts), tile * tile)
-        py = (oy[:, None, None] + offs[None, :, None]).expand(-1, tile, tile).reshape(len(ts), tile * tile)
-        colour, cover = stage(brush.paint)(xs, Pixels(px, py, width, height), coverage)
-        fg.append(colour)
-        alpha.append(cover)
-    if len(fg) == 1:  # one pass (split always yields at least one part): nothing to copy
-        return Tiles(b, t, fg[0], alpha[0], rows, cols)
-    return Tiles(b, t, torch.cat(fg), torch.cat(alpha), rows, cols)
+    paint = stage(brush.paint)
+    passes = [paint(xs, tile_pixels(ts, width, height, tile, x.dtype), coverage) for xs, ts in zip(x[b].split(step), t.split(step))]
+    fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
+    return Tiles(b, t, fg, alpha, math.ceil(height / tile), math.ceil(width / tile))
+
+
+def tile_pixels(t: Tensor, width: int, height: int, tile: int, dtype: torch.dtype) -> Pixels:
+    """Pixel centres (P, tile²) of tiles t (P,), row by row: pixel n is row n // tile, column n % tile."""
+    cols = math.ceil(width / tile)
+    offsets = torch.arange(tile, device=t.device, dtype=dtype)
+    ox = ((t % cols).to(dtype) * tile)[:, None, None] + offsets[None, None, :]
+    oy = (torch.div(t, cols, rounding_mode="floor").to(dtype) * tile)[:, None, None] + offsets[None, :, None]
+    shape = (len(t), tile * tile)
+    return Pixels(ox.expand(-1, tile, tile).reshape(shape), oy.expand(-1, tile, tile).reshape(shape), width, height)
 
 
 def write_tiles(segments: Tensor, stroke: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, rows: int, cols: int) -> None:
