@@ -128,7 +128,7 @@ def _newton_step(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Te
         movable = ((t > 0) & (t < 1)) | ((t <= 0) & (s < 0)) | ((t >= 1) & (s > 0))
     stepped = (t - slope / curvature.clamp(min=1e-3)).clamp(0, 1)
     with torch.no_grad():
-        better = _reach(stepped, p0, a, b, px, py, taper) < _reach(t, p0, a, b, px, py, taper)
+        better = _reach(stepped, p0, a, b, px, py, taper) < norm - (0 if taper is None else taper * t)  # φ(t)
         accept = movable & (curvature > 1e-3) & better
     return torch.where(accept, stepped, t)
 
