@@ -142,20 +142,23 @@ def rasterize(
     # A pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be recycled
     # by the allocator instead of page-faulted in afresh by every op.
     step = max(1, PASS_PIXELS // tile**2)
-    paint = stage(brush.paint)
-    passes = [paint(xs, tile_pixels(ts, width, height, tile, x.dtype), coverage) for xs, ts in zip(x[b].split(step), t.split(step))]
+    offsets = torch.arange(tile, device=x.device, dtype=x.dtype)
+    dx, dy = offsets.repeat(tile), offsets.repeat_interleave(tile)  # pixel n of a tile: row n // tile, column n % tile
+    shade = stage(shade_tiles)
+    passes = [shade(brush, xs, ts, dx, dy, width, height, tile, coverage) for xs, ts in zip(x[b].split(step), t.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, math.ceil(height / tile), math.ceil(width / tile))
 
 
-def tile_pixels(t: Tensor, width: int, height: int, tile: int, dtype: torch.dtype) -> Pixels:
-    """Pixel centres (P, tile²) of tiles t (P,), row by row: pixel n is row n // tile, column n % tile."""
+def shade_tiles(
+    brush: Brush, x: Tensor, t: Tensor, dx: Tensor, dy: Tensor, width: int, height: int, tile: int, coverage
+) -> tuple[Tensor, Tensor]:
+    """Foreground (P, 3, n) and alpha (P, n) of strokes x (P, d) on tiles t (P,), whose pixel k lies
+    (dx[k], dy[k]) from the tile's corner (n = tile² pixels)."""
     cols = math.ceil(width / tile)
-    offsets = torch.arange(tile, device=t.device, dtype=dtype)
-    ox = ((t % cols).to(dtype) * tile)[:, None, None] + offsets[None, None, :]
-    oy = (torch.div(t, cols, rounding_mode="floor").to(dtype) * tile)[:, None, None] + offsets[None, :, None]
-    shape = (len(t), tile * tile)
-    return Pixels(ox.expand(-1, tile, tile).reshape(shape), oy.expand(-1, tile, tile).reshape(shape), width, height)
+    px = ((t % cols) * tile).to(x.dtype)[:, None] + dx
+    py = (torch.div(t, cols, rounding_mode="floor") * tile).to(x.dtype)[:, None] + dy
+    return brush.paint(x, Pixels(px, py, width, height), coverage)
 
 
 def write_tiles(segments: Tensor, stroke: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, rows: int, cols: int) -> None:
