@@ -65,12 +65,12 @@ def untile(tiles: Tensor, height: int, width: int, tile: int) -> Tensor:
     return image.reshape(*lead, c, rows * tile, cols * tile)[..., :height, :width]
 
 
-def boxed_tiles(brush: Brush, x: Tensor, width: int, height: int, tile: int, margin: float) -> Tensor:
-    """(B, rows·cols) mask of the tiles that meet each stroke's bounding box grown by ``margin`` px."""
+def boxed_tiles(box: Tensor, width: int, height: int, tile: int, margin: float) -> Tensor:
+    """(B, rows·cols) mask of the tiles that meet each stroke's box (B, 4) grown by ``margin`` px."""
     rows, cols = math.ceil(height / tile), math.ceil(width / tile)
-    r = torch.arange(rows, device=x.device)[None, :, None]
-    c = torch.arange(cols, device=x.device)[None, None, :]
-    return in_box(brush.extent(x, width, height)[:, None, None], r, c, tile, margin).reshape(len(x), rows * cols)
+    r = torch.arange(rows, device=box.device)[None, :, None]
+    c = torch.arange(cols, device=box.device)[None, None, :]
+    return in_box(box[:, None, None], r, c, tile, margin).reshape(len(box), rows * cols)
 
 
 def in_box(box: Tensor, row: Tensor, col: Tensor, tile: int, margin: float) -> Tensor:
@@ -80,23 +80,25 @@ def in_box(box: Tensor, row: Tensor, col: Tensor, tile: int, margin: float) -> T
 
 
 def near_tiles(brush: Brush, x: Tensor, t: Tensor, width: int, height: int, tile: int, margin: float) -> Tensor:
-    """(P,) whether stroke x[p] can reach tile t[p]: its bounding box, then the brush's 1-Lipschitz
-    distance bound at the tile's centre."""
+    """(P,) whether stroke x[p] can reach tile t[p]: the brush's 1-Lipschitz distance bound at the tile's centre."""
     cols = math.ceil(width / tile)
-    row, col = torch.div(t, cols, rounding_mode="floor"), t % cols
-    cx, cy = col.to(x.dtype) * tile + (tile - 1) / 2, row.to(x.dtype) * tile + (tile - 1) / 2
-    near = brush.bound(x, Pixels(cx[:, None], cy[:, None], width, height))[:, 0] <= tile / math.sqrt(2) + margin
-    return near & in_box(brush.extent(x, width, height), row, col, tile, margin)
+    cx = (t % cols).to(x.dtype) * tile + (tile - 1) / 2
+    cy = torch.div(t, cols, rounding_mode="floor").to(x.dtype) * tile + (tile - 1) / 2
+    return brush.bound(x, Pixels(cx[:, None], cy[:, None], width, height))[:, 0] <= tile / math.sqrt(2) + margin
 
 
-def subtiles(b: Tensor, t: Tensor, width: int, height: int, coarse: int, fine: int) -> tuple[Tensor, Tensor]:
-    """The (stroke, tile) pairs of the ``fine`` tiles inside each ``coarse`` tile t: (P·k²,) each, k = coarse / fine."""
+def subtiles(
+    b: Tensor, t: Tensor, box: Tensor, width: int, height: int, coarse: int, fine: int, margin: float
+) -> tuple[Tensor, Tensor]:
+    """The (stroke, tile) pairs of the ``fine`` tiles inside each ``coarse`` tile t that meet the
+    stroke's box (B, 4) grown by ``margin`` px: (≤ P·k²,) each, k = coarse / fine."""
     k = coarse // fine
     cols, fine_rows, fine_cols = math.ceil(width / coarse), math.ceil(height / fine), math.ceil(width / fine)
     offset = torch.arange(k, device=t.device)
     row = (torch.div(t, cols, rounding_mode="floor") * k)[:, None, None] + offset[None, :, None]  # (P, k, 1)
     col = (t % cols * k)[:, None, None] + offset[None, None, :]  # (P, 1, k)
-    inside = ((row < fine_rows) & (col < fine_cols)).flatten(1)
+    inside = (row < fine_rows) & (col < fine_cols) & in_box(box[b][:, None, None], row, col, fine, margin)
+    inside = inside.flatten(1)
     return b[:, None].expand_as(inside)[inside], (row * fine_cols + col).flatten(1)[inside]
 
 
@@ -131,11 +133,12 @@ def rasterize(
         sizes = [tile]
         while sizes[-1] * 32 <= max(width, height):
             sizes.append(sizes[-1] * 4)
-        b, t = boxed_tiles(brush, x.detach(), width, height, sizes[-1], margin).nonzero(as_tuple=True)
+        box = brush.extent(x.detach(), width, height)  # (B, 4) px
+        b, t = boxed_tiles(box, width, height, sizes[-1], margin).nonzero(as_tuple=True)
         coarse = None
         for size in reversed(sizes):
             if coarse is not None:
-                b, t = subtiles(b, t, width, height, coarse, size)
+                b, t = subtiles(b, t, box, width, height, coarse, size, margin)
             keep = stage(near_tiles)(brush, x.detach()[b], t, width, height, size, margin)
             b, t, coarse = b[keep], t[keep], size
 
