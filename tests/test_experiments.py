@@ -8,19 +8,24 @@ from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 
+import nsp.painter.schema  # noqa: F401  (registers ``paint_schema``)
 from nsp.training import train
 from nsp.training.schema import register_configs
 
 CONF = Path(__file__).parents[1] / "conf"
 TINY_TRAIN = [
-    "model.size=32", "model.width=0.125", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16",
+    "model.size=32", "model.width=0.125", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16", "data.test_size=16",
     "trainer.max_steps=2", "trainer.accelerator=cpu", "trainer.num_sanity_val_steps=0", "trainer.log_every_n_steps=1",
 ]
-SWEEPS = {
-    "renderer_comparison": ("dcgan,pxlshuffle,unet,dual", "oilpaint,watercolor"),
-    "renderer_comparison_paper": ("dcgan,pxlshuffle,unet,dual", "oilpaint,watercolor"),
-    "renderer_ablation": ("dual_raster,dual_shading,dual", "oilpaint,watercolor"),
-    "renderer_ablation_paper": ("dual_raster,dual_shading,dual", "oilpaint,watercolor"),
+COMPARISON, ABLATION, BRUSHES = "dcgan,pxlshuffle,unet,dual", "dual_raster,dual_shading,dual", "oilpaint,watercolor"
+SWEEPS = {  # experiment: renderers, brushes, seeds
+    "renderer_lr": ("dcgan,pxlshuffle,unet,dual,dual_raster,dual_shading", BRUSHES, "0"),
+    "renderer_comparison": (COMPARISON, BRUSHES, "0,1,2"),
+    "renderer_comparison_64": (COMPARISON, BRUSHES, "0,1"),
+    "renderer_comparison_paper": (COMPARISON, BRUSHES, "0,1,2"),
+    "renderer_ablation": (ABLATION, BRUSHES, "0,1,2"),
+    "renderer_ablation_64": (ABLATION, BRUSHES, "0,1"),
+    "renderer_ablation_paper": (ABLATION, BRUSHES, "0,1,2"),
 }
 
 
@@ -40,12 +45,16 @@ def test_experiment_files_are_the_ones_tested():
 def test_training_experiment_sweeps_the_papers_renderers_and_runs_two_steps(experiment, tmp_path):
     register_configs()
     cfg = compose_with_hydra("train", "train", [f"experiment={experiment}"])
-    assert (cfg.hydra.sweeper.params.renderer, cfg.hydra.sweeper.params.brush) == SWEEPS[experiment]
+    params = cfg.hydra.sweeper.params
+    assert (params.renderer, params.brush, params.seed) == SWEEPS[experiment]
     assert cfg.hydra.sweep.dir.startswith(f"multirun/{experiment}/")
+    assert cfg.trainer.max_time is None  # runs end on their step or epoch count, never on wall-clock
     if experiment.endswith("_paper"):
         assert (cfg.model.size, cfg.data.epoch_size, cfg.trainer.max_epochs, cfg.trainer.accelerator) == (128, 50_000, 400, "gpu")
+        assert cfg.model.optimizer.lr == 2e-4  # the paper's, for every renderer
     else:  # one budget for every renderer, in steps, small enough for a CPU
-        assert (cfg.model.size, cfg.trainer.max_steps, cfg.trainer.accelerator) == (32, 1500, "cpu")
+        size = 64 if experiment.endswith("_64") else 32
+        assert (cfg.model.size, cfg.trainer.max_steps, cfg.data.batch_size, cfg.trainer.accelerator) == (size, 1500, 64, "cpu")
 
     cfg = compose_with_hydra("train", "train", [f"experiment={experiment}", "renderer=dual", "brush=watercolor",
                                                  *TINY_TRAIN, f"output_dir={tmp_path}"])
@@ -60,6 +69,16 @@ def paint_experiment(tmp_path):
         return compose_with_hydra("paint", "paint", [f"experiment={experiment}", f"output_dir={tmp_path}", *overrides])
 
     return compose_paint
+
+
+@pytest.mark.parametrize("renderer", COMPARISON.split(",") + ["dual_raster", "dual_shading"])
+def test_one_comparison_job_trains_with_its_renderers_own_rate(renderer):
+    register_configs()
+    cfg = compose_with_hydra("train", "train", ["experiment=renderer_comparison", f"renderer={renderer}"])
+    assert cfg.model.optimizer.lr == cfg.lr_by_renderer[renderer]
+    assert set(cfg.lr_by_renderer) == set(SWEEPS["renderer_lr"][0].split(","))  # every rate comes from the study
+    lr_study = compose_with_hydra("train", "train", ["experiment=renderer_lr", f"renderer={renderer}", "model.optimizer.lr=3e-4"])
+    assert lr_study.model.optimizer.lr == 3e-4 and lr_study.trainer.max_steps == cfg.trainer.max_steps
 
 
 def test_ot_push_moves_a_stroke_and_records_position_error(paint_experiment, tmp_path):

@@ -23,8 +23,8 @@ def fake_job(sweep: Path, num: int, overrides: list[str], metrics: dict | None, 
                 writer.add_scalar("val/psnr", value, step)
 
 
-def train_metrics(renderer: str, brush: str, psnr: float, status: str = "completed") -> dict:
-    return {"val/psnr": psnr, "steps": 100, "seconds": 9.5, "renderer": renderer, "brush": brush, "status": status}
+def train_metrics(renderer: str, brush: str, psnr: float, status: str = "completed", **more) -> dict:
+    return {"val/psnr": psnr, "steps": 100, "seconds": 9.5, "renderer": renderer, "brush": brush, "status": status, **more}
 
 
 @pytest.fixture
@@ -42,7 +42,7 @@ def renderer_sweep(tmp_path: Path) -> Path:
 
 def test_renderer_sweep_report_is_exactly_the_expected_tables(renderer_sweep):
     written = write_report(renderer_sweep)
-    assert [p.name for p in written] == ["report.md", "report.csv", "val_psnr.png"]
+    assert [p.name for p in written] == ["report.md", "report.csv", "val_psnr.png", "final_val_psnr.png"]
     assert (renderer_sweep / "report.csv").read_text() == (
         "job,renderer,brush,status,val/psnr,steps,seconds\n"
         "0,dual_raster,oilpaint,completed,20.5,100,9.5\n"
@@ -56,12 +56,52 @@ def test_renderer_sweep_report_is_exactly_the_expected_tables(renderer_sweep):
     assert (
         "| renderer | oilpaint | oilpaint (paper) | watercolor | watercolor (paper) |\n"
         "|---|---:|---:|---|---:|\n"
-        "| dual_raster | 20.5 | 24.015 | 22.25 | 25.769 |\n"
-        "| dual | 23.0 | 26.982 | failed | 31.389 |\n"
+        "| dual_raster | 20.50 | 24.02 | 22.25 | 25.77 |\n"
+        "| dual | 23.00 | 26.98 | failed | 31.39 |\n"
     ) in report
+    assert "| dual_raster | +2.50 ± 0.00 | — |" in report  # dual's margin, where both ran
     assert "| 3 | dual | watercolor | failed | — | — | — |" in report
-    assert "![val_psnr](val_psnr.png)" in report
-    assert (renderer_sweep / "val_psnr.png").read_bytes()[:4] == b"\x89PNG"
+    assert "![val_psnr](val_psnr.png)" in report and "![final_val_psnr](final_val_psnr.png)" in report
+    for plot in written[2:]:
+        assert plot.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_seeds_pool_into_mean_and_std_of_the_test_score_with_paired_margins(tmp_path):
+    scores = {("dcgan", 0): 19.0, ("dcgan", 1): 20.0, ("dcgan", 2): 21.0, ("dual", 0): 22.0, ("dual", 1): 22.5, ("dual", 2): 23.5}
+    for num, ((renderer, seed), score) in enumerate(scores.items()):
+        fake_job(tmp_path, num, [f"renderer={renderer}", "brush=oilpaint", f"seed={seed}"],
+                 train_metrics(renderer, "oilpaint", 30.0, **{"test/psnr": score, "lr": 0.003 if renderer == "dual" else 0.001}))
+    report = write_report(tmp_path)[0].read_text()
+    assert "PSNR on the test strokes, mean ± std over 3 seeds" in report
+    # Cells: the test score (not the validation one, 30.0), mean ± sample std over seeds, with each row's rate.
+    assert (
+        "| renderer | lr | oilpaint | oilpaint (paper) |\n|---|---:|---:|---:|\n"
+        "| dcgan | 0.001 | 20.00 ± 1.00 | — |\n| dual | 0.003 | 22.67 ± 0.76 | 26.98 |\n"
+    ) in report
+    # Paired by seed: 3.0, 2.5, 2.5.
+    assert "| dcgan | +2.67 ± 0.29 |" in report
+    assert (tmp_path / "final_test_psnr.png").is_file() and not (tmp_path / "val_psnr.png").exists()
+
+
+def test_learning_rate_study_scores_validation_and_chooses_each_renderers_rate(tmp_path):
+    val = {("pxlshuffle", "0.001"): (17.0, 17.5), ("pxlshuffle", "0.003"): (11.0, 11.5),
+           ("dual", "0.001"): (21.0, 20.0), ("dual", "0.003"): (22.0, 20.5)}
+    num = 0
+    for (renderer, lr), pair in val.items():
+        for brush, score in zip(("oilpaint", "watercolor"), pair):
+            fake_job(tmp_path, num, [f"renderer={renderer}", f"brush={brush}", f"model.optimizer.lr={lr}"],
+                     train_metrics(renderer, brush, score, **{"test/psnr": 99.0}))
+            num += 1
+    report = write_report(tmp_path)[0].read_text()
+    assert "## Final val/psnr (dB) by renderer and brush" in report and "99.00" not in report
+    assert "| renderer | lr=0.001 | lr=0.003 | chosen |\n|---|---:|---:|---:|\n" in report
+    assert "| pxlshuffle | 17.25 | 11.25 | 0.001 |" in report and "| dual | 20.50 | 21.25 | 0.003 |" in report
+
+
+def test_a_sweep_too_short_for_curves_still_gets_a_bar_chart(tmp_path):
+    fake_job(tmp_path, 0, ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", 12.0), [(30, 12.0)])
+    fake_job(tmp_path, 1, ["renderer=dual", "brush=tape"], train_metrics("dual", "tape", 13.0), [(30, 13.0)])
+    assert [p.name for p in write_report(tmp_path)[2:]] == ["final_val_psnr.png"]
 
 
 def test_metrics_with_status_failed_is_reported_failed(tmp_path):
@@ -70,7 +110,7 @@ def test_metrics_with_status_failed_is_reported_failed(tmp_path):
     write_report(tmp_path)
     rows = (tmp_path / "report.csv").read_text().splitlines()
     assert rows[2].startswith("1,unet,failed,13.0")
-    assert "| unet | failed | — |" in (tmp_path / "report.md").read_text()  # its score is no result; tape: not in the paper
+    assert "| unet | failed |\n" in (tmp_path / "report.md").read_text()  # its score is no result; no paper column for tape
 
 
 def test_painting_sweep_reports_its_own_metrics_and_no_renderer_table(tmp_path):

@@ -60,13 +60,15 @@ def test_compiled_rendering_draws_the_same_batches():
         assert all(torch.allclose(a, b, atol=1e-5) for a, b in zip(ours[1:], theirs[1:]))
 
 
-def test_validation_set_is_fixed_whatever_the_training_seed():
+def test_validation_and_test_sets_are_fixed_whatever_the_training_seed_and_apart():
     sets = []
     for seed in (0, 1):
-        data = StrokeData("tape", 32, batch_size=8, val_size=16, seed=seed)
+        data = StrokeData("tape", 32, batch_size=8, val_size=16, test_size=16, seed=seed)
         data.setup("fit")
-        sets.append(data.val_set.tensors[0])
-    assert torch.equal(*sets)
+        data.setup("test")
+        sets.append((data.val_set.tensors[0], data.test_set.tensors[0]))
+    assert torch.equal(sets[0][0], sets[1][0]) and torch.equal(sets[0][1], sets[1][1])
+    assert not torch.isclose(sets[0][0][:, None], sets[0][1][None]).all(-1).any()  # no test stroke is a validation stroke
 
 
 def test_a_few_steps_lower_the_loss_and_the_checkpoint_gives_the_same_renderer(tmp_path):
@@ -106,7 +108,7 @@ def compose_train(tmp_path: Path, *overrides: str):
     register_configs()
     with initialize_config_dir(str(CONF), version_base="1.3"):
         cfg = compose("train", overrides=[
-            "model.width=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=16",
+            "model.width=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=16", "data.test_size=16",
             "trainer.max_steps=8", "trainer.log_every_n_steps=2", "trainer.num_sanity_val_steps=0", "trainer.enable_progress_bar=false",
             f"output_dir={tmp_path}", *overrides,
         ], return_hydra_config=True)
@@ -117,8 +119,10 @@ def compose_train(tmp_path: Path, *overrides: str):
 def test_train_writes_metrics_checkpoints_and_tensorboard(tmp_path):
     metrics = train(compose_train(tmp_path, "renderer=dcgan", "brush=oilpaint"))
     assert json.loads((tmp_path / "metrics.json").read_text()) == metrics
-    assert {"val/psnr", "val/psnr_fg", "val/psnr_alpha", "seconds"} <= metrics.keys()
+    assert {"val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha", "seconds"} <= metrics.keys()
+    assert metrics["test/psnr"] != metrics["val/psnr"]  # scored on other strokes
     assert (metrics["steps"], metrics["renderer"], metrics["brush"], metrics["status"]) == (8, "dcgan", "oilpaint", "completed")
+    assert (metrics["lr"], metrics["seed"]) == (3e-3, 0)
     assert {p.name for p in (tmp_path / "checkpoints").iterdir()} == {"best.ckpt", "last.ckpt"}
 
     events = EventAccumulator(str(tmp_path / "tensorboard"), size_guidance={"images": 0}).Reload().Tags()

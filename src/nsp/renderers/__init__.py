@@ -18,9 +18,13 @@ from nsp.renderers.unet import UNet
 
 
 def build(config: Mapping[str, Any], brush: str) -> nn.Module:
-    """The renderer a ``renderer`` config node describes (``_target_``, ``size``, ``width``, …) for ``brush``."""
+    """The renderer a ``renderer`` config node describes (``_target_``, ``size``, ``width``, …) for ``brush``.
+
+    ``name`` (the config's own label) is not an argument of the network.
+    """
     check_size(config["size"])  # before instantiate, which would wrap the error in its own
-    return instantiate(dict(config), brush=brush, _convert_="all")
+    arguments = {key: value for key, value in config.items() if key != "name"}
+    return instantiate(arguments, brush=brush, _convert_="all")
 
 
 __all__ = ["DCGAN", "SIZES", "DualPathway", "PxlShuffleNet", "RasterizationNetwork", "ShadingNetwork", "UNet", "build"]

@@ -1,10 +1,13 @@
-"""Tables of a multirun: one row per job (CSV and markdown) and, for renderer sweeps, the final
-validation PSNR by renderer and brush beside the paper's."""
+"""Tables of a multirun: one row per job (CSV and markdown) and, for renderer sweeps, the study's
+pivot (renderer × brush, mean ± std over seeds, beside the paper's numbers), dual's margin over
+every other renderer, and, for learning-rate studies, the rate each renderer gets."""
 from __future__ import annotations
 
 import csv
 import io
 import math
+import statistics
+from dataclasses import dataclass
 from numbers import Number
 
 from nsp.reporting.collect import Job, swept_keys
@@ -14,12 +17,35 @@ PAPER_PSNR = {
     ("dual_raster", "oilpaint"): 24.015, ("dual_shading", "oilpaint"): 26.048, ("dual", "oilpaint"): 26.982,
     ("dual_raster", "watercolor"): 25.769, ("dual_shading", "watercolor"): 29.045, ("dual", "watercolor"): 31.389,
 }
-PIVOT_METRIC = "val/psnr"
+HEADLINES = ("test/psnr", "val/psnr", "psnr")  # the metric a table reports: the first any job recorded
+LR = "model.optimizer.lr"
+PANEL = "brush"  # a pivot's columns, a plot's panels
+SEED = "seed"  # repeats of one setting: pooled into mean ± std
+DUAL = "dual"
+
+
+@dataclass
+class Stat:
+    """A metric over the completed jobs of one setting (its seeds)."""
+
+    values: list[float]
+
+    @property
+    def mean(self) -> float:
+        return statistics.fmean(self.values)
+
+    @property
+    def std(self) -> float:
+        """Sample standard deviation; 0 for a single value."""
+        return statistics.stdev(self.values) if len(self.values) > 1 else 0.0
+
+    def __str__(self) -> str:
+        return f"{self.mean:.2f} ± {self.std:.2f}" if len(self.values) > 1 else f"{self.mean:.2f}"
 
 
 def metric_keys(jobs: list[Job]) -> list[str]:
     """Numeric metrics any job recorded, in first-seen order; text (the brush's name, the status) has
-    its own columns."""
+    its own columns, and swept values (seed, lr) theirs."""
     swept = set(swept_keys(jobs))
     keys = dict.fromkeys(
         key for job in jobs for key, value in job.metrics.items() if isinstance(value, Number) and not isinstance(value, bool)
@@ -35,28 +61,108 @@ def job_rows(jobs: list[Job]) -> tuple[list[str], list[list]]:
     return header, rows
 
 
+def headline(jobs: list[Job]) -> str | None:
+    """The metric a study reports: the validation score where it chooses a learning rate (the choice
+    must not see the test strokes), else the test score where jobs have one."""
+    recorded = {key for job in jobs for key in job.metrics}
+    if LR in swept_keys(jobs) and "val/psnr" in recorded:
+        return "val/psnr"
+    return next((key for key in HEADLINES if key in recorded), None)
+
+
+def group_keys(jobs: list[Job]) -> list[str]:
+    """Swept keys that tell settings apart: all but the seed (pooled) and the brush (columns, panels)."""
+    return [key for key in swept_keys(jobs) if key not in (SEED, PANEL)]
+
+
+def label(job: Job, keys: list[str]) -> str:
+    """``key=value`` of ``keys`` (the last part of a dotted key), e.g. ``renderer=dual lr=0.001``."""
+    return " ".join(f"{key.rsplit('.', 1)[-1]}={job.choice(key)}" for key in keys)
+
+
+def stat(jobs: list[Job], metric: str) -> Stat | None:
+    """``metric`` over the completed jobs among ``jobs``; None when none completed."""
+    values = [float(j.metrics[metric]) for j in jobs if j.status == "completed" and metric in j.metrics]
+    return Stat(values) if values else None
+
+
 def is_renderer_sweep(jobs: list[Job]) -> bool:
-    return "renderer" in swept_keys(jobs) and any(PIVOT_METRIC in job.metrics for job in jobs)
+    return "renderer" in swept_keys(jobs) and headline(jobs) in ("test/psnr", "val/psnr")
 
 
 def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
-    """Final ``val/psnr`` with rows renderer and columns brush, each brush beside the paper's number.
-
-    A cell is the mean over the completed jobs of that renderer and brush (several when seeds are
-    swept too); ``failed`` when none completed.
-    """
-    renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
-    brushes = list(dict.fromkeys(job.choice("brush") for job in jobs))
-    header = ["renderer"] + [name for brush in brushes for name in (brush, f"{brush} (paper)")]
+    """The study's table: a row per setting (renderer, lr, …), a column per brush, each cell the
+    headline metric as mean ± std over seeds (``failed`` when no job of it completed), with the
+    paper's figure beside a brush where the paper has any, and the learning rate each row used."""
+    metric, keys = headline(jobs), group_keys(jobs)
+    settings = list(dict.fromkeys(tuple(job.choice(k) for k in keys) for job in jobs))
+    brushes = list(dict.fromkeys(job.choice(PANEL) for job in jobs))
+    with_paper = [b for b in brushes if any((job.choice("renderer"), b) in PAPER_PSNR for job in jobs)]
+    show_lr = LR not in keys and any("lr" in job.metrics for job in jobs)
+    header = [*keys, *(["lr"] if show_lr else [])]
+    for brush in brushes:
+        header += [brush] + ([f"{brush} (paper)"] if brush in with_paper else [])
     rows = []
-    for renderer in renderers:
-        row: list = [renderer]
+    for setting in settings:
+        same = [job for job in jobs if tuple(job.choice(k) for k in keys) == setting]
+        row: list = list(setting)
+        if show_lr:
+            row.append(", ".join(dict.fromkeys(f"{job.metrics['lr']:g}" for job in same if "lr" in job.metrics)) or None)
         for brush in brushes:
-            cell = [j for j in jobs if (j.choice("renderer"), j.choice("brush")) == (renderer, brush)]
-            scores = [j.metrics[PIVOT_METRIC] for j in cell if PIVOT_METRIC in j.metrics and j.status != "failed"]
-            measured = round(sum(scores) / len(scores), 3) if scores else ("failed" if cell else None)
-            row += [measured, PAPER_PSNR.get((renderer, brush))]
+            cell = [job for job in same if job.choice(PANEL) == brush]
+            score = stat(cell, metric)
+            row.append(str(score) if score else ("failed" if cell else None))
+            if brush in with_paper:
+                paper = PAPER_PSNR.get((dict(zip(keys, setting)).get("renderer"), brush))
+                row.append(None if paper is None else f"{paper:.2f}")
         rows.append(row)
+    return header, rows
+
+
+def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
+    """Dual's margin over every other renderer per brush: the headline metric of dual minus theirs, as
+    mean ± std over the seeds both ran (the same seed draws the same training strokes, so the
+    difference is paired). None unless ``dual`` and another renderer were swept."""
+    metric = headline(jobs)
+    if not is_renderer_sweep(jobs) or group_keys(jobs) != ["renderer"]:
+        return None
+    renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
+    if DUAL not in renderers or len(renderers) < 2:
+        return None
+    brushes = list(dict.fromkeys(job.choice(PANEL) for job in jobs))
+
+    def scores(renderer: str, brush: str) -> dict:
+        return {job.choice(SEED): float(job.metrics[metric]) for job in jobs if job.status == "completed"
+                and metric in job.metrics and (job.choice("renderer"), job.choice(PANEL)) == (renderer, brush)}
+
+    header, rows = ["dual minus", *brushes], []
+    for other in (r for r in renderers if r != DUAL):
+        row: list = [other]
+        for brush in brushes:
+            dual, theirs = scores(DUAL, brush), scores(other, brush)
+            paired = [dual[s] - theirs[s] for s in dual if s in theirs]
+            row.append(f"{Stat(paired).mean:+.2f} ± {Stat(paired).std:.2f}" if paired else None)
+        rows.append(row)
+    return header, rows
+
+
+def chosen_rates(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
+    """For a learning-rate study: per renderer, the validation score at each rate averaged over brushes
+    (and seeds), and the rate with the best average. None unless ``renderer`` and the rate are swept."""
+    if headline(jobs) != "val/psnr" or not {"renderer", LR} <= set(swept_keys(jobs)):
+        return None
+    renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
+    rates = sorted(dict.fromkeys(job.choice(LR) for job in jobs), key=float)
+    header, rows = ["renderer", *(f"lr={rate}" for rate in rates), "chosen"], []
+    for renderer in renderers:
+        means = {}
+        for rate in rates:
+            cell = [job for job in jobs if (job.choice("renderer"), job.choice(LR)) == (renderer, rate)]
+            score = stat(cell, "val/psnr")
+            if score and len(score.values) == len(cell):  # a rate with a failed job is not chosen
+                means[rate] = score.mean
+        rows.append([renderer, *(f"{means[r]:.2f}" if r in means else "failed" for r in rates),
+                     max(means, key=means.get) if means else None])
     return header, rows
 
 
@@ -69,13 +175,24 @@ def to_csv(header: list[str], rows: list[list]) -> str:
 
 
 def to_markdown(header: list[str], rows: list[list]) -> str:
-    """A GitHub markdown table; absent values show as —, numbers right-aligned."""
+    """A GitHub markdown table; absent values show as —, numbers (and ``mean ± std``) right-aligned."""
     def cell(value) -> str:
         if value is None or (isinstance(value, float) and math.isnan(value)):
             return "—"
         return str(value)
 
-    numeric = [all(isinstance(row[i], Number) or row[i] is None for row in rows) for i in range(len(header))]
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---:" if n else "---" for n in numeric) + "|"]
+    def numeric(value) -> bool:
+        return value is None or isinstance(value, Number) or (isinstance(value, str) and _is_number(value.split(" ± ")[0]))
+
+    right = [all(numeric(row[i]) for row in rows) for i in range(len(header))]
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---:" if r else "---" for r in right) + "|"]
     lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
     return "\n".join(lines) + "\n"
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

@@ -5,10 +5,10 @@ import json
 import pickle
 import time
 from pathlib import Path
+from typing import Sequence
 
 import lightning as L
 import torch
-from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 from lightning.pytorch.callbacks import Callback, LearningRateMonitor, ModelCheckpoint, RichProgressBar
 from lightning.pytorch.loggers import TensorBoardLogger
@@ -19,7 +19,7 @@ from nsp.renderers import build
 from nsp.training.data import StrokeData
 from nsp.training.module import RendererModule
 
-METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha")
+METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha")
 
 
 class SaveOnInterrupt(Callback):
@@ -37,10 +37,11 @@ class SaveOnInterrupt(Callback):
             trainer.save_checkpoint(self.path)
 
 
-def train(cfg: DictConfig) -> dict:
+def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
     """Train the renderer ``cfg`` describes; write checkpoints, TensorBoard events and ``metrics.json``.
 
-    Returns the metrics written to ``metrics.json``.
+    The final model is scored on the validation strokes and then, once, on the test strokes.
+    ``callbacks`` are added to the trainer's own. Returns the metrics written to ``metrics.json``.
     """
     L.seed_everything(cfg.seed, workers=True)
     if cfg.threads:
@@ -57,13 +58,18 @@ def train(cfg: DictConfig) -> dict:
     logger = TensorBoardLogger(out, name="tensorboard", version="", default_hp_metric=False)
     checkpoints = out / "checkpoints"
     callbacks = [
+        *callbacks,
         ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True),
         SaveOnInterrupt(checkpoints / "last.ckpt"),
         LearningRateMonitor(),
     ]
     if cfg.trainer.enable_progress_bar:
         callbacks.append(RichProgressBar())
-    trainer: L.Trainer = instantiate(cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out)
+    # torch's SyncBatchNorm is CUDA-only: on CPU (gloo) each rank keeps its own batch statistics.
+    sync_batchnorm = cfg.trainer.sync_batchnorm and cfg.trainer.accelerator != "cpu"
+    trainer: L.Trainer = instantiate(
+        cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out, sync_batchnorm=sync_batchnorm
+    )
 
     start = time.perf_counter()
     try:
@@ -71,26 +77,28 @@ def train(cfg: DictConfig) -> dict:
     except SystemExit:  # Lightning exits after a Ctrl-C, once last.ckpt is saved
         _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
         raise
-    return _finish(trainer, logger, cfg, trainer.validate(model, datamodule=data, verbose=False)[0], start, "completed")
+    scores = trainer.validate(model, datamodule=data, verbose=False)[0] | trainer.test(model, datamodule=data, verbose=False)[0]
+    return _finish(trainer, logger, cfg, scores, start, "completed")
 
 
 def _finish(trainer: L.Trainer, logger: TensorBoardLogger, cfg: DictConfig, scores, start: float, status: str) -> dict:
     """Write ``metrics.json`` and the HPARAMS entry (final scores under ``final/*``); return the metrics."""
-    renderer = HydraConfig.get().runtime.choices.renderer
     metrics = {k: round(float(scores[k]), 3) for k in METRICS if k in scores} | {
         "steps": trainer.global_step,
         "seconds": round(time.perf_counter() - start, 1),
-        "renderer": renderer,
+        "renderer": cfg.renderer.name,
         "brush": cfg.brush.name,
         "size": cfg.model.size,
+        "lr": cfg.model.optimizer.get("lr"),
+        "seed": cfg.seed,
         "status": status,
     }
     if trainer.is_global_zero:
         hparams = {
-            "renderer": renderer, "brush": cfg.brush.name, "size": cfg.model.size, "width": cfg.model.width,
+            "renderer": cfg.renderer.name, "brush": cfg.brush.name, "size": cfg.model.size, "width": cfg.model.width,
             "batch_size": cfg.data.batch_size, "lr": cfg.model.optimizer.get("lr"), "seed": cfg.seed,
         }
-        logger.log_hyperparams(hparams, {k.replace("val/", "final/"): metrics[k] for k in METRICS if k in metrics})
+        logger.log_hyperparams(hparams, {"final/" + k.replace("/", "_"): metrics[k] for k in METRICS if k in metrics})
         (Path(cfg.output_dir) / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     return metrics
 

@@ -7,7 +7,7 @@ import lightning as L
 import numpy as np
 import torch
 from torch import Tensor
-from torch.utils.data import DataLoader, Dataset, Sampler, TensorDataset
+from torch.utils.data import DataLoader, Dataset, DistributedSampler, Sampler, TensorDataset
 
 from nsp.brushes import Brush, get_brush
 from nsp.engine import render
@@ -64,7 +64,9 @@ class EpochSampler(Sampler[int]):
 
 
 class StrokeData(L.LightningDataModule):
-    """Random training strokes of one brush (fresh every epoch) and a fixed, seeded validation set.
+    """Random training strokes of one brush (fresh every epoch), and fixed, seeded validation and test
+    sets (streams 1 and 2 of their seeds; training is stream 0), so no choice made on the validation
+    strokes scores itself on them.
 
     Batches are ``(x (B, d), foreground (B, 3, S, S), alpha (B, 1, S, S))``. Training batches are
     rendered by ``num_workers`` loader processes, alongside training (CPU), or with
@@ -79,6 +81,8 @@ class StrokeData(L.LightningDataModule):
         epoch_size: int = 50_000,
         val_size: int = 1024,
         val_seed: int = 0,
+        test_size: int = 1024,
+        test_seed: int = 0,
         seed: int = 0,
         num_workers: int = 0,
         render_on_device: bool = False,
@@ -91,11 +95,14 @@ class StrokeData(L.LightningDataModule):
         self.num_workers, self.render_on_device, self.compile = num_workers, render_on_device, compile
         self.batches = math.ceil(epoch_size / batch_size)
         self.val_size, self.val_seed, self.seed = val_size, val_seed, seed
+        self.test_size, self.test_seed = test_size, test_seed
 
     def setup(self, stage: str) -> None:
-        if not hasattr(self, "val_set"):
-            # Drawn once from its own seed (stream 1; training is stream 0), so every run scores the same strokes.
+        # Each drawn once from its own seed, so every run scores the same strokes.
+        if stage in ("fit", "validate") and not hasattr(self, "val_set"):
             self.val_set = TensorDataset(*draw(self.brush, self.val_size, self.size, generator(self.val_seed, 1)))
+        if stage == "test" and not hasattr(self, "test_set"):
+            self.test_set = TensorDataset(*draw(self.brush, self.test_size, self.size, generator(self.test_seed, 2)))
         size = None if self.render_on_device else self.size
         self.train_set = RandomStrokes(self.brush, self.batch_size, self.seed, size, self.compile)
 
@@ -110,7 +117,16 @@ class StrokeData(L.LightningDataModule):
         )
 
     def val_dataloader(self) -> DataLoader:
-        return DataLoader(self.val_set, batch_size=self.batch_size)
+        return self.scoring_loader(self.val_set)
+
+    def test_dataloader(self) -> DataLoader:
+        return self.scoring_loader(self.test_set)
+
+    def scoring_loader(self, strokes: TensorDataset) -> DataLoader:
+        """A fixed set in order; under DDP each rank scores its own share and the metrics are synced."""
+        world = self.trainer.world_size if self.trainer else 1
+        sampler = DistributedSampler(strokes, shuffle=False) if world > 1 else None
+        return DataLoader(strokes, batch_size=self.batch_size, sampler=sampler)
 
     def on_after_batch_transfer(self, batch, dataloader_idx: int):
         if isinstance(batch, Tensor):  # strokes only (render_on_device): render them where training runs

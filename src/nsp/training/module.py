@@ -17,7 +17,8 @@ PREVIEW = 8  # validation strokes shown in the TensorBoard image grid
 
 
 class RendererModule(L.LightningModule):
-    """L2 on foreground and alpha; accuracy = mean of PSNR(foreground) and PSNR(alpha) (the paper's).
+    """L2 on foreground and alpha; accuracy = mean of PSNR(foreground) and PSNR(alpha) (the paper's),
+    on the validation strokes during training and on the test strokes once at the end.
 
     Args:
         renderer: the ``renderer`` config node as a plain dict (``_target_``, ``size``, ``width``, …);
@@ -61,29 +62,43 @@ class RendererModule(L.LightningModule):
         return loss
 
     def validation_step(self, batch, batch_idx: int) -> None:
+        self.score(batch, batch_idx, "val")
+
+    def test_step(self, batch, batch_idx: int) -> None:
+        self.score(batch, batch_idx, "test")
+
+    def score(self, batch, batch_idx: int, split: str) -> None:
+        """Accumulate PSNR over a fixed set (``split`` is ``val`` or ``test``)."""
         loss, fg_hat, alpha_hat = self.loss(batch)
         _, fg, alpha = batch
         self.psnr_fg.update(fg_hat, fg)
         self.psnr_alpha.update(alpha_hat, alpha)
-        self.log("val/loss", loss, sync_dist=True)
+        self.log(f"{split}/loss", loss, sync_dist=True)
         if batch_idx == 0:
             self.preview = [t[:PREVIEW] for t in (fg, fg_hat, alpha, alpha_hat)]
 
     def on_validation_epoch_end(self) -> None:
-        psnr_fg, psnr_alpha = self.psnr_fg.compute(), self.psnr_alpha.compute()
-        with torch.inference_mode(False):  # states reset under validate()'s inference mode would break fit's updates
-            self.psnr_fg.reset()
-            self.psnr_alpha.reset()
-        self.log_dict(
-            {"val/psnr_fg": psnr_fg, "val/psnr_alpha": psnr_alpha, "val/psnr": (psnr_fg + psnr_alpha) / 2},
-            prog_bar=True,
-            sync_dist=True,
-        )
+        self.log_scores("val")
         if isinstance(self.logger, TensorBoardLogger) and self.trainer.is_global_zero:
             # Rows: true foreground, predicted foreground, true alpha, predicted alpha.
             rows = [t.expand(-1, 3, -1, -1) for t in self.preview]
             grid = make_grid(torch.cat(rows).clamp(0, 1), nrow=len(rows[0]), padding=1, pad_value=0.5)
             self.logger.experiment.add_image("val/strokes", grid, self.global_step)
+
+    def on_test_epoch_end(self) -> None:
+        self.log_scores("test")
+
+    def log_scores(self, split: str) -> None:
+        """Log ``{split}/psnr_fg``, ``/psnr_alpha`` and their mean ``/psnr``, over every rank's strokes."""
+        psnr_fg, psnr_alpha = self.psnr_fg.compute(), self.psnr_alpha.compute()  # torchmetrics syncs ranks
+        with torch.inference_mode(False):  # states reset under validate()'s inference mode would break fit's updates
+            self.psnr_fg.reset()
+            self.psnr_alpha.reset()
+        self.log_dict(
+            {f"{split}/psnr_fg": psnr_fg, f"{split}/psnr_alpha": psnr_alpha, f"{split}/psnr": (psnr_fg + psnr_alpha) / 2},
+            prog_bar=split == "val",
+            sync_dist=True,
+        )
 
     def configure_optimizers(self):
         optimizer = self.optimizer(self.parameters())

@@ -22,6 +22,7 @@ from nsp.config import BrushConfig
 @dataclass
 class RendererConfig:
     _target_: str = MISSING
+    name: str = MISSING  # the ``renderer`` group choice: keys ``lr_by_renderer`` and names the run in its metrics
     size: int = "${model.size}"  # type: ignore[assignment]
     width: float = "${model.width}"  # type: ignore[assignment]
 
@@ -38,6 +39,8 @@ class DataConfig:
     epoch_size: int = 50_000  # fresh random strokes per epoch (the paper's)
     val_size: int = 1024  # fixed, seeded validation strokes
     val_seed: int = 0  # the validation set does not move with ``seed``, so runs compare
+    test_size: int = 1024  # fixed, seeded test strokes, scored once after training: tables report these,
+    test_seed: int = 0  # while choices (learning rates) are made on the validation strokes
     num_workers: int = 1  # processes rendering training batches alongside training
     render_on_device: bool = False  # render training batches on the training device (GPU) instead
     compile: bool = False  # render through torch.compile'd engine stages: ~3x faster, after a one-off compile
@@ -72,7 +75,7 @@ class TrainerConfig:
     precision: Any = "32-true"
     max_epochs: Optional[int] = None
     max_steps: int = -1
-    max_time: Optional[str] = None  # "DD:HH:MM:SS"
+    max_time: Optional[str] = None  # "DD:HH:MM:SS"; studies end on max_steps only, so a busy machine changes no table
     val_check_interval: Any = None
     check_val_every_n_epoch: Optional[int] = 1
     limit_train_batches: Any = None
@@ -95,6 +98,7 @@ class TrainConfig:
     model: ModelConfig = field(default_factory=ModelConfig)
     trainer: TrainerConfig = field(default_factory=TrainerConfig)
     seed: int = 0  # model initialisation and the training strokes
+    lr_by_renderer: dict[str, float] = field(default_factory=dict)  # studies: each renderer's own rate (experiment=renderer_lr)
     threads: Optional[int] = None  # torch intra-op threads of the training process; None = torch's default
     ckpt_path: Optional[str] = None  # resume from this checkpoint
     output_dir: str = "${hydra:runtime.output_dir}"
