@@ -1,10 +1,13 @@
 """Training: the data, a few steps lowering the loss, checkpoints the painter can load, ``train(cfg)``."""
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import lightning as L
 import pytest
 import torch
+import torch.nn.functional as F
 from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
@@ -142,3 +145,29 @@ def test_load_renderer_refuses_other_files(tmp_path):
     for path in (tmp_path / "notes.txt", tmp_path / "other.ckpt"):
         with pytest.raises(ValueError, match="is not an nsp renderer checkpoint"):
             load_renderer(path)
+
+
+def test_ddp_on_cpu_splits_the_strokes_syncs_the_metrics_and_writes_one_run(tmp_path):
+    """``trainer=ddp trainer.accelerator=cpu trainer.devices=2``: two processes over gloo."""
+    done = subprocess.run([sys.executable, str(Path(__file__).parent / "ddp_job.py"), str(tmp_path)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    ranks = [json.loads((tmp_path / f"rank{r}.json").read_text()) for r in (0, 1)]
+    assert [(r["backend"], r["world_size"]) for r in ranks] == [("gloo", 2)] * 2
+    assert ranks[0]["first_stroke"] != ranks[1]["first_stroke"]  # each rank trains on its own strokes
+    assert ranks[0]["val_share"] == ranks[1]["val_share"] == 16  # and scores half the validation strokes,
+    assert ranks[0]["local_mse"] != ranks[1]["local_mse"]  # with its own error on them,
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert ranks[0]["val/psnr"] == ranks[1]["val/psnr"] == pytest.approx(metrics["val/psnr"], abs=1e-3)  # yet all agree
+    # ... on the PSNR of the whole set, as one process scores the saved renderer (not a mean of two halves' PSNRs).
+    renderer, _, _ = load_renderer(tmp_path / "checkpoints" / "last.ckpt")
+    data = StrokeData("watercolor", 32, val_size=32)
+    data.setup("validate")
+    x, fg, alpha = data.val_set.tensors
+    with torch.no_grad():
+        fg_hat, alpha_hat = renderer(x)
+    psnr = [-10 * torch.log10(F.mse_loss(a, b)) for a, b in ((fg_hat, fg), (alpha_hat, alpha))]
+    assert float(sum(psnr) / 2) == pytest.approx(metrics["val/psnr"], abs=2e-3)
+    assert (metrics["steps"], metrics["status"]) == (2, "completed") and "test/psnr" in metrics
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.suffix in (".json", ".ckpt")) == [
+        "checkpoints/best.ckpt", "checkpoints/last.ckpt", "metrics.json", "rank0.json", "rank1.json"]
