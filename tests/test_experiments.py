@@ -4,6 +4,7 @@ import json
 from pathlib import Path
 
 import pytest
+import torch
 from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
@@ -91,12 +92,30 @@ def test_ot_push_moves_a_stroke_and_records_position_error(paint_experiment, tmp
     assert (tmp_path / "push.png").is_file() and list((tmp_path / "tensorboard").glob("events.*"))
 
 
-def test_ot_digits_paints_digits_and_scores_the_ink(paint_experiment, tmp_path):
-    cfg = paint_experiment("ot_digits", "loss=l1", "task.steps=2", "task.count=2", "strokes=2")
-    assert (cfg.hydra.sweeper.params.loss, cfg.brush.name, cfg.canvas) == ("l1,l1_ot", "markerpen", "black")
+def test_ot_digits_starts_strokes_off_the_ink_and_scores_it_with_spread(paint_experiment, tmp_path):
+    cfg = paint_experiment("ot_digits", "loss=l1", "task.steps=2", "task.count=3", "strokes=2")
+    assert (cfg.hydra.sweeper.params.loss, cfg.brush.name, cfg.canvas, cfg.task.count) == ("l1,l1_ot", "markerpen", "black", 3)
     metrics = instantiate(cfg.task)(cfg)
-    assert {"psnr", "iou", "seconds"} <= metrics.keys() and 0 <= metrics["iou"] <= 1
+    assert {"psnr", "psnr_std", "iou", "iou_std", "seconds"} <= metrics.keys() and 0 <= metrics["iou"] <= 1
+    assert metrics["iou_start"] == 0  # no start stroke touches its digit's ink
+    per_digit = json.loads((tmp_path / "digits.json").read_text())
+    assert len(per_digit["psnr"]) == len(per_digit["iou"]) == 3
     assert metrics["strokes"] == 2 and (tmp_path / "digits.png").is_file()
+
+
+def test_off_ink_starts_keep_their_distance_from_the_ink():
+    from nsp.brushes import get_brush
+    from nsp.engine import render
+    from nsp.experiments.ot import digit_targets, off_ink_starts
+
+    brush = get_brush("markerpen")
+    mask, _ = digit_targets(20, 64, torch.zeros(3))
+    x = off_ink_starts(brush, mask, 4, 0.08, (0.1, 0.2), 0.05, torch.Generator().manual_seed(0))
+    coverage = render(brush, x, 64)[1].view(20, 4, 64, 64)
+    assert float((coverage * (mask > 0.05)).sum()) == 0  # not one pixel of a start stroke on its digit
+    with pytest.raises(ValueError, match="brush=tape"):
+        off_ink_starts(get_brush("tape"), mask, 4, 0.08, (0.1, 0.2), 0.05, torch.Generator())
+
 
 
 @pytest.mark.parametrize("root, name", [("train", "train"), ("paint", "paint")])
