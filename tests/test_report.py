@@ -131,3 +131,17 @@ def test_bad_dir_is_a_one_line_error_naming_it(tmp_path, make):
     message = exit_.value.code
     assert isinstance(message, str) and "\n" not in message
     assert str(path) in message and ".hydra/overrides.yaml" in message
+
+
+def test_without_a_dir_the_newest_multirun_is_reported(tmp_path, monkeypatch):
+    for name, psnr in (("old", 11.0), ("new", 12.0)):
+        sweep = tmp_path / "multirun" / "train" / name
+        fake_job(sweep, 0, ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", psnr))
+        (sweep / "multirun.yaml").write_text("hydra: {}\n")
+    monkeypatch.chdir(tmp_path)
+    main([])
+    assert (tmp_path / "multirun" / "train" / "new" / "report.md").is_file()
+    assert not (tmp_path / "multirun" / "train" / "old" / "report.md").exists()
+    (tmp_path / "multirun").rename(tmp_path / "elsewhere")
+    with pytest.raises(SystemExit, match="multirun holds no multirun"):
+        main([])

@@ -10,15 +10,16 @@ import argparse
 import sys
 from pathlib import Path
 
-from nsp.reporting import write_report
+from nsp.reporting import latest_sweep, write_report
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m nsp.report", description=__doc__.splitlines()[0])
-    parser.add_argument("dir", type=Path, help="a multirun's sweep dir, e.g. multirun/renderer_comparison/<time>")
+    parser.add_argument("dir", type=Path, nargs="?",
+                        help="a multirun's sweep dir, e.g. multirun/renderer_comparison/<time>; default: the newest under multirun/")
     args = parser.parse_args(argv)
     try:
-        written = write_report(args.dir)
+        written = write_report(args.dir or latest_sweep(Path("multirun")))
     except ValueError as error:
         sys.exit(f"error: {error}")
     for path in written:

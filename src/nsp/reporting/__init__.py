@@ -4,7 +4,7 @@ from __future__ import annotations
 from collections import Counter
 from pathlib import Path
 
-from nsp.reporting.collect import Job, collect, common_overrides, swept_keys
+from nsp.reporting.collect import Job, collect, common_overrides, latest_sweep, swept_keys
 from nsp.reporting.plots import plot_all
 from nsp.reporting.tables import (
     SEED, chosen_rates, headline, is_renderer_sweep, job_rows, margins, pivot, to_csv, to_markdown,
@@ -51,4 +51,4 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["Job", "collect", "write_report"]
+__all__ = ["Job", "collect", "latest_sweep", "write_report"]

@@ -81,6 +81,17 @@ def collect(sweep: Path) -> list[Job]:
     return jobs
 
 
+def latest_sweep(root: Path) -> Path:
+    """The most recently started multirun under ``root`` (``root/<name>/<sweep>/`` holding job dirs).
+
+    Raises ``ValueError`` naming ``root`` when it holds none.
+    """
+    sweeps = [p for p in root.glob("*/*") if p.is_dir() and any(is_job(job) for job in p.iterdir() if job.is_dir())]
+    if not sweeps:
+        raise ValueError(f"{root} holds no multirun; give the sweep dir: python -m nsp.report multirun/<name>/<time>")
+    return max(sweeps, key=lambda p: (p / "multirun.yaml").stat().st_mtime if (p / "multirun.yaml").is_file() else p.stat().st_mtime)
+
+
 def swept_keys(jobs: list[Job]) -> list[str]:
     """Override keys whose value differs between jobs, in the order the first jobs list them."""
     keys = list(dict.fromkeys(key for job in jobs for key in job.overrides))
