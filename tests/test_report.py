@@ -145,3 +145,15 @@ def test_without_a_dir_the_newest_multirun_is_reported(tmp_path, monkeypatch):
     (tmp_path / "multirun").rename(tmp_path / "elsewhere")
     with pytest.raises(SystemExit, match="multirun holds no multirun"):
         main([])
+
+
+def test_a_corrupt_metrics_file_is_a_failed_job_naming_it_and_mixed_runs_still_report(tmp_path):
+    fake_job(tmp_path, 0, ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", 12.0, **{"test/psnr": 11.5}))
+    fake_job(tmp_path, 1, ["renderer=dual", "brush=tape"], None)
+    (tmp_path / "1_job" / "metrics.json").write_text('{"val/psnr": 1')  # cut short by a kill
+    fake_job(tmp_path, 2, ["image=astronaut", "strokes=10"], {"psnr": 18.0, "ssim": 0.5, "seconds": 2.0})  # a painting
+    written = write_report(tmp_path)
+    report = written[0].read_text()
+    assert "3 jobs: 2 completed, 1 failed." in report
+    assert "1_job/metrics.json is not valid JSON" in report
+    assert all(path.is_file() for path in written)

@@ -33,7 +33,11 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
     if common := common_overrides(jobs):
         lines += ["", "Every job: " + " ".join(f"`{key}={value}`" for key, value in common.items())]
     lines += ["", "## Jobs", "", to_markdown(*job_rows(jobs))]
-    if is_renderer_sweep(jobs):
+    if errors := [job for job in jobs if job.error]:
+        lines += ["Why jobs failed:", ""] + [f"- job {job.num}: {job.error}" for job in errors] + [""]
+    trained = [job for job in jobs if job.choice("renderer") is not None]  # a folder may mix paintings in
+    if trained and is_renderer_sweep(trained):
+        jobs = trained
         seeds = len({job.choice(SEED) for job in jobs}) if SEED in swept_keys(jobs) else 1
         spread = f"mean ± std over {seeds} seeds" if seeds > 1 else "one seed"
         split = "validation" if headline(jobs) == "val/psnr" else "test"

@@ -22,6 +22,7 @@ class Job:
         metrics: the job's ``metrics.json``; empty when it wrote none.
         status: ``metrics["status"]`` if given, ``completed`` if not; ``failed`` without ``metrics.json``.
         curves: TensorBoard scalar tag -> [(step, value)], by step, the last value of a repeated step.
+        error: why the job failed, where known (``metrics["error"]``, or an unreadable ``metrics.json``).
     """
 
     num: int | str
@@ -30,6 +31,7 @@ class Job:
     metrics: dict = field(default_factory=dict)
     status: str = FAILED
     curves: dict[str, list[tuple[int, float]]] = field(default_factory=dict)
+    error: str | None = None
 
     def choice(self, key: str):
         """The value of ``key`` this job ran with: its override, else what its metrics record."""
@@ -49,8 +51,14 @@ def read_job(path: Path) -> Job:
     job = Job(num=path.name if num is None else int(num), path=path, overrides=overrides, curves=read_curves(path))
     metrics_file = path / "metrics.json"
     if metrics_file.is_file():
-        job.metrics = json.loads(metrics_file.read_text())
-        job.status = job.metrics.get("status", "completed")
+        try:
+            metrics = json.loads(metrics_file.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            metrics = None
+        if not isinstance(metrics, dict):
+            job.error = f"{path.name}/metrics.json is not valid JSON (a job killed while writing it?)"
+            return job
+        job.metrics, job.status, job.error = metrics, metrics.get("status", "completed"), metrics.get("error")
     return job
 
 

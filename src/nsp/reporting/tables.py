@@ -101,7 +101,7 @@ def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
     show_lr = LR not in keys and any("lr" in job.metrics for job in jobs)
     header = [*keys, *(["lr"] if show_lr else [])]
     for brush in brushes:
-        header += [brush] + ([f"{brush} (paper)"] if brush in with_paper else [])
+        header += [str(brush)] + ([f"{brush} (paper)"] if brush in with_paper else [])
     rows = []
     for setting in settings:
         same = [job for job in jobs if tuple(job.choice(k) for k in keys) == setting]
@@ -135,7 +135,7 @@ def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
         return {job.choice(SEED): float(job.metrics[metric]) for job in jobs if job.status == "completed"
                 and metric in job.metrics and (job.choice("renderer"), job.choice(PANEL)) == (renderer, brush)}
 
-    header, rows = ["dual minus", *brushes], []
+    header, rows = ["dual minus", *map(str, brushes)], []
     for other in (r for r in renderers if r != DUAL):
         row: list = [other]
         for brush in brushes:
