@@ -18,6 +18,7 @@ from omegaconf import DictConfig, OmegaConf
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.brushes import get_brush
+from nsp.cli import INTERRUPTED, run_job
 from nsp.engine import parse_color
 from nsp.io.export import write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
@@ -131,18 +132,19 @@ def paint(cfg: DictConfig) -> dict:
 
 
 @hydra.main(config_path="../../conf/paint", config_name="paint", version_base="1.3")
-def main(cfg: DictConfig) -> float:
+def main(cfg: DictConfig) -> float | None:
     if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits)
-        metrics = instantiate(cfg.task)(cfg)
-        print(f"{cfg.output_dir}: " + ", ".join(f"{key} {value}" for key, value in metrics.items()))
-        return metrics.get("psnr", 0.0)
+        metrics = run_job(cfg, instantiate(cfg.task))
+        if metrics is not None:
+            print(f"{cfg.output_dir}: " + ", ".join(f"{key} {value}" for key, value in metrics.items()))
+        return None if metrics is None else metrics.get("psnr", 0.0)
     try:
-        metrics = paint(cfg)
-    except BadInput as error:
-        sys.exit(f"error: {error}")
+        metrics = run_job(cfg, paint, bad_input=(BadInput,))
     except KeyboardInterrupt:
         print(f"interrupted: strokes.json and final.png of what was painted are in {cfg.output_dir}", file=sys.stderr)
-        sys.exit(130)
+        sys.exit(INTERRUPTED)
+    if metrics is None:  # a failed job of a sweep, recorded in its dir
+        return None
     print(f"painted {metrics['strokes']} strokes in {metrics['seconds']:.1f} s, PSNR {metrics['psnr']:.2f} dB: "
           f"{cfg.output_dir}")
     return metrics["psnr"]

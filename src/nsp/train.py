@@ -10,6 +10,7 @@ import sys
 import hydra
 from omegaconf import DictConfig
 
+from nsp.cli import run_job
 from nsp.training import train
 from nsp.training.schema import misspelt_key, register_configs
 
@@ -17,11 +18,9 @@ register_configs()
 
 
 @hydra.main(config_path="../../conf/train", config_name="train", version_base="1.3")
-def main(cfg: DictConfig) -> float:
-    try:
-        return train(cfg)["val/psnr"]
-    except ValueError as error:  # a bad value the schema cannot type (e.g. model.size=48): one line, no traceback
-        sys.exit(f"error: {error}")
+def main(cfg: DictConfig) -> float | None:
+    metrics = run_job(cfg, train)  # a bad value the schema cannot type (e.g. model.size=48): one line, no traceback
+    return None if metrics is None else metrics["val/psnr"]
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
     """The report: what ran, the job table; for renderer sweeps the study's pivot, dual's margins and
     the chosen learning rates; the plots."""
     statuses = Counter(job.status for job in jobs)
-    counts = ", ".join(f"{n} {status}" for status, n in statuses.most_common())
+    counts = ", ".join(f"{n} {status}" for status, n in sorted(statuses.items(), key=lambda item: (item[0] != "completed", -item[1])))
     lines = [f"# Report: {sweep.name}", "", f"{len(jobs)} jobs: {counts}."]
     if common := common_overrides(jobs):
         lines += ["", "Every job: " + " ".join(f"`{key}={value}`" for key, value in common.items())]

@@ -1,0 +1,47 @@
+"""A sweep outlives a bad job: the job records why it failed, the others run, the sweep ends naming it."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from nsp.reporting import write_report
+
+TINY_TRAIN = ["model.width=0.125", "trainer.max_steps=2", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16",
+              "data.test_size=16", "data.num_workers=0", "trainer.enable_progress_bar=false"]
+TINY_PAINT = ["strokes=8", "work_size=64", "render_size=64", "animation_size=64", "progress=false"]
+
+
+def sweep(command: str, sweep_dir: Path, *overrides: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", command, "-m", *overrides, f"hydra.sweep.dir={sweep_dir}"],
+                          capture_output=True, text=True, timeout=300)
+
+
+def metrics(job: Path) -> dict:
+    return json.loads((job / "metrics.json").read_text())
+
+
+def test_a_training_sweep_runs_every_job_past_a_bad_value(tmp_path):
+    done = sweep("nsp.train", tmp_path, "model.size=48,32", *TINY_TRAIN)
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines()[-1].startswith("1 of 2 jobs failed (0_dual_watercolor); the others finished.")
+    assert "Traceback" not in done.stderr
+    assert metrics(tmp_path / "0_dual_watercolor") == {"status": "failed", "error": "renderer size must be one of 32, 64, 128, got 48"}
+    assert metrics(tmp_path / "1_dual_watercolor")["status"] == "completed"
+    report = write_report(tmp_path)[0].read_text()
+    assert "2 jobs: 1 completed, 1 failed." in report and "- job 0: renderer size must be one of 32, 64, 128, got 48" in report
+
+
+def test_a_parallel_painting_sweep_keeps_the_good_paintings_past_a_missing_image(tmp_path):
+    done = sweep("nsp.paint", tmp_path, "image=chelsea,/nonexistent/photo.png", *TINY_PAINT, "hydra/launcher=joblib")
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert "error: 1_oilpaint: image=/nonexistent/photo.png: no such file" in done.stderr
+    assert metrics(tmp_path / "0_oilpaint")["strokes"] == 8 and (tmp_path / "0_oilpaint" / "final.png").is_file()
+    failed = metrics(tmp_path / "1_oilpaint")
+    assert failed["status"] == "failed" and "no such file" in failed["error"]
+
+
+def test_a_single_run_with_a_bad_value_is_one_line_and_exit_2(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "nsp.train", "model.size=48", f"hydra.run.dir={tmp_path}"],
+                          capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stderr.strip().splitlines()[-1]) == (2, "error: renderer size must be one of 32, 64, 128, got 48")
+    assert "Traceback" not in done.stderr and not (tmp_path / "metrics.json").exists()
