@@ -157,3 +157,10 @@ def test_a_corrupt_metrics_file_is_a_failed_job_naming_it_and_mixed_runs_still_r
     assert "3 jobs: 2 completed, 1 failed." in report
     assert "1_job/metrics.json is not valid JSON" in report
     assert all(path.is_file() for path in written)
+
+
+def test_a_single_run_dir_is_reported_by_itself(tmp_path):
+    fake_job(tmp_path, 0, ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", 12.0), [(50, 10.0), (100, 12.0)])
+    run = tmp_path / "0_job"
+    written = write_report(run)
+    assert "1 job: 1 completed." in written[0].read_text() and (run / "val_psnr.png").is_file()

@@ -1,8 +1,9 @@
-"""``python -m nsp.report DIR``: tables and plots of a Hydra multirun (SPEC §6).
+"""``python -m nsp.report [DIR]``: tables and plots of a Hydra multirun, a folder of runs or one run.
 
 Writes into DIR ``report.md``, ``report.csv`` (one row per job: swept choices, status, final metrics;
-renderer sweeps also get the renderer × brush ``val/psnr`` table beside the paper's) and one
-``<tag>.png`` per TensorBoard curve. Works for ``nsp.train`` and ``nsp.paint`` sweeps alike.
+renderer studies also get the renderer × brush table, mean ± std over seeds, beside the paper's),
+one ``<tag>.png`` per TensorBoard curve and a bar chart of the final score. Works for ``nsp.train``
+and ``nsp.paint`` sweeps alike. Without DIR: the newest sweep under ``multirun/``.
 """
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from nsp.reporting import latest_sweep, write_report
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m nsp.report", description=__doc__.splitlines()[0])
     parser.add_argument("dir", type=Path, nargs="?",
-                        help="a multirun's sweep dir, e.g. multirun/renderer_comparison/<time>; default: the newest under multirun/")
+                        help="a multirun's sweep dir (e.g. multirun/renderer_comparison/<time>), a folder of runs or a run dir; default: the newest sweep under multirun/")
     args = parser.parse_args(argv)
     try:
         written = write_report(args.dir or latest_sweep(Path("multirun")))

@@ -29,7 +29,7 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
     the chosen learning rates; the plots."""
     statuses = Counter(job.status for job in jobs)
     counts = ", ".join(f"{n} {status}" for status, n in sorted(statuses.items(), key=lambda item: (item[0] != "completed", -item[1])))
-    lines = [f"# Report: {sweep.name}", "", f"{len(jobs)} jobs: {counts}."]
+    lines = [f"# Report: {sweep.name}", "", f"{len(jobs)} job{'s' * (len(jobs) != 1)}: {counts}."]
     if common := common_overrides(jobs):
         lines += ["", "Every job: " + " ".join(f"`{key}={value}`" for key, value in common.items())]
     lines += ["", "## Jobs", "", to_markdown(*job_rows(jobs))]

@@ -74,18 +74,21 @@ def read_curves(path: Path) -> dict[str, list[tuple[int, float]]]:
 
 
 def collect(sweep: Path) -> list[Job]:
-    """The jobs of the multirun in ``sweep``, by job number (single runs' dirs after them, by name).
+    """The jobs in ``sweep``: a multirun's jobs by job number (other run dirs after them, by name), or
+    the one run when ``sweep`` is itself a run's dir.
 
     Raises ``ValueError`` naming ``sweep`` when it holds no job.
     """
     if not sweep.is_dir():
         raise ValueError(f"{sweep} is not a directory; expected a Hydra multirun dir (job dirs with .hydra/overrides.yaml)")
+    if is_job(sweep):
+        return [read_job(sweep)]
     jobs = sorted(
         (read_job(p) for p in sweep.iterdir() if p.is_dir() and is_job(p)),
         key=lambda job: (isinstance(job.num, str), job.num if isinstance(job.num, int) else 0, str(job.num)),
     )
     if not jobs:
-        raise ValueError(f"{sweep} holds no Hydra job; expected job dirs with .hydra/overrides.yaml (a `-m` run's sweep dir)")
+        raise ValueError(f"{sweep} holds no Hydra job; expected a run dir or job dirs with .hydra/overrides.yaml (a `-m` run's sweep dir)")
     return jobs
 
 
