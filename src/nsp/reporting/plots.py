@@ -74,23 +74,32 @@ def plot_tag(jobs: list[Job], tag: str, path: Path) -> None:
 
 
 def plot_bars(jobs: list[Job], metric: str, path: Path) -> None:
-    """Final ``metric`` per setting, mean over seeds with ± std error bars, saved to ``path``."""
+    """Final ``metric`` per setting as horizontal bars (mean over seeds, ± std error bars), a panel per
+    brush, saved to ``path``."""
     columns = panels(jobs)
-    fig, axes = figure(len(columns))
-    for ax, panel in zip(axes, columns):
+    names = list(dict.fromkeys(name for panel in columns for name in settings(jobs, panel)))
+    fig, axes = plt.subplots(1, len(columns), figsize=(4.5 * len(columns) + 2, 0.8 + 0.32 * len(names)),
+                             squeeze=False, sharey=True)
+    low, high = np.inf, -np.inf
+    for ax, panel in zip(axes[0], columns):
         groups = settings(jobs, panel)
-        stats = [stat(group, metric) for group in groups.values()]
-        means = [s.mean if s else np.nan for s in stats]
-        errors = [s.std if s else 0.0 for s in stats]
-        ax.bar(range(len(groups)), means, yerr=errors, capsize=4, color="tab:blue", alpha=0.8)
-        ax.set_xticks(range(len(groups)), list(groups), rotation=20, ha="right", fontsize=8)
+        stats = [stat(groups[name], metric) if name in groups else None for name in names]
+        means = np.array([s.mean if s else np.nan for s in stats])
+        errors = np.array([s.std if s else 0.0 for s in stats])
+        ax.barh(range(len(names)), means, xerr=errors, capsize=3, color="tab:blue", alpha=0.8)
+        for y, (mean, error) in enumerate(zip(means, errors)):
+            if np.isfinite(mean):
+                ax.text(mean + error, y, f" {mean:.2f}", va="center", fontsize=7)
         ax.set_title(f"{PANEL}={panel}" if panel is not None else metric)
-        ax.grid(alpha=0.3, axis="y")
-        finite = [m for m in means if np.isfinite(m)]
-        if finite:  # PSNRs differ by a few dB on top of ~20: start the axis near the lowest bar
-            low, high = min(finite), max(m + e for m, e in zip(means, errors) if np.isfinite(m))
-            ax.set_ylim(low - 0.1 * (high - low + 1), high + 0.1 * (high - low + 1))
-    axes[0].set_ylabel(f"{metric} (mean ± std over seeds)")
+        ax.grid(alpha=0.3, axis="x")
+        ax.set_xlabel(f"{metric} (mean ± std over seeds)")
+        if np.isfinite(means).any():
+            low, high = min(low, np.nanmin(means)), max(high, np.nanmax(means + errors))
+    axes[0][0].set_yticks(range(len(names)), names, fontsize=8)
+    axes[0][0].invert_yaxis()  # first setting on top, as in the tables
+    if np.isfinite(low):  # PSNRs differ by a few dB on top of ~20: start the axis near the lowest bar
+        for ax in axes[0]:
+            ax.set_xlim(low - 0.15 * (high - low + 1), high + 0.25 * (high - low + 1))
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
