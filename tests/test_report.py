@@ -164,3 +164,12 @@ def test_a_single_run_dir_is_reported_by_itself(tmp_path):
     run = tmp_path / "0_job"
     written = write_report(run)
     assert "1 job: 1 completed." in written[0].read_text() and (run / "val_psnr.png").is_file()
+
+
+def test_margins_also_when_dual_jobs_come_from_another_experiment(tmp_path):
+    for num, (renderer, experiment, score) in enumerate([("dual_raster", "renderer_ablation", 20.0),
+                                                        ("dual", "renderer_comparison", 22.5)]):
+        fake_job(tmp_path, num, [f"experiment={experiment}", f"renderer={renderer}", "brush=oilpaint"],
+                 train_metrics(renderer, "oilpaint", 1.0, **{"test/psnr": score}))
+    report = write_report(tmp_path)[0].read_text()
+    assert "| renderer_ablation | dual_raster |" in report and "| dual_raster | +2.50 ± 0.00 |" in report

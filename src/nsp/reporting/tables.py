@@ -122,9 +122,12 @@ def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
 def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
     """Dual's margin over every other renderer per brush: the headline metric of dual minus theirs, as
     mean ± std over the seeds both ran (the same seed draws the same training strokes, so the
-    difference is paired). None unless ``dual`` and another renderer were swept."""
-    metric = headline(jobs)
-    if not is_renderer_sweep(jobs) or group_keys(jobs) != ["renderer"]:
+    difference is paired). None unless ``dual`` and another renderer were swept, and each renderer
+    ran one setting (other swept keys, if any, go with the renderer)."""
+    metric, keys = headline(jobs), group_keys(jobs)
+    settings = {tuple(job.choice(k) for k in keys) for job in jobs}
+    renderers = {job.choice("renderer") for job in jobs}
+    if not is_renderer_sweep(jobs) or len(settings) != len(renderers):  # other keys vary within a renderer
         return None
     renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
     if DUAL not in renderers or len(renderers) < 2:
