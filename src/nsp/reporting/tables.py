@@ -126,10 +126,9 @@ def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
     ran one setting (other swept keys, if any, go with the renderer)."""
     metric, keys = headline(jobs), group_keys(jobs)
     settings = {tuple(job.choice(k) for k in keys) for job in jobs}
-    renderers = {job.choice("renderer") for job in jobs}
+    renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
     if not is_renderer_sweep(jobs) or len(settings) != len(renderers):  # other keys vary within a renderer
         return None
-    renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
     if DUAL not in renderers or len(renderers) < 2:
         return None
     brushes = list(dict.fromkeys(job.choice(PANEL) for job in jobs))
@@ -143,8 +142,8 @@ def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
         row: list = [other]
         for brush in brushes:
             dual, theirs = scores(DUAL, brush), scores(other, brush)
-            paired = [dual[s] - theirs[s] for s in dual if s in theirs]
-            row.append(f"{Stat(paired).mean:+.2f} ± {Stat(paired).std:.2f}" if paired else None)
+            paired = Stat([dual[s] - theirs[s] for s in dual if s in theirs])
+            row.append(f"{paired.mean:+.2f} ± {paired.std:.2f}" if paired.values else None)
         rows.append(row)
     return header, rows
 
