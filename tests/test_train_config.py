@@ -83,8 +83,8 @@ def test_valid_and_deliberate_overrides_get_no_hint():
 
 def test_cli_misspelt_key_is_one_line_and_non_zero_exit():
     result = run_cli("trainer.max_epoch=3")
-    assert result.returncode != 0
-    assert result.stderr.strip() == "Could not override 'trainer.max_epoch': no such key. Did you mean 'trainer.max_epochs'?"
+    assert result.returncode == 2
+    assert result.stderr.strip() == "error: Could not override 'trainer.max_epoch': no such key. Did you mean 'trainer.max_epochs'?"
 
 
 def test_cli_bad_size_is_one_line_naming_valid_sizes(tmp_path):

@@ -6,23 +6,30 @@ multirun (``-m``) the same job instead records why it failed in its own dir (``m
 ``"status": "failed"`` and the one-line ``"error"``; a crash's traceback in ``traceback.txt``) and
 returns, so the launcher goes on with the next job; :class:`FailedJobs` then ends the sweep with one
 line naming the failed jobs and :data:`FAILED`. ``python -m nsp.report`` lists them as failed rows.
+
+Ctrl-C and SIGTERM (``timeout``, Slurm, ``docker stop``) both interrupt: the work keeps what it had
+and the command exits with :data:`INTERRUPTED`. :class:`RunDirs` keeps every run in a dir of its own.
 """
 from __future__ import annotations
 
 import json
+import signal
 import sys
 import traceback
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterable, Iterator
 
 from hydra.core.hydra_config import HydraConfig
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import OverrideParseException
 from hydra.experimental.callback import Callback
 from hydra.types import RunMode
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf, read_write
 
 FAILED = 1  # some work failed (a crash, or jobs of a sweep)
 BAD_INPUT = 2  # nothing started: a value was wrong
-INTERRUPTED = 130  # Ctrl-C, as shells report SIGINT
+INTERRUPTED = 130  # Ctrl-C or SIGTERM; shells report SIGINT as 130
 
 
 def in_sweep() -> bool:
@@ -78,3 +85,108 @@ def _status(path: Path) -> str | None:
         return json.loads(path.read_text()).get("status")
     except (OSError, ValueError, AttributeError):
         return None
+
+
+class RunDirs(Callback):
+    """One run per dir: a default (time-stamped) dir already taken by a run started in the same
+    second gets a fresh sibling (``…_2``); a dir the user named that already holds a run's files
+    (more than the config and log of a run that never started) is refused with one line and
+    :data:`BAD_INPUT`, before anything is written. A training run resuming from a
+    checkpoint inside its own dir (``ckpt_path=DIR/checkpoints/last.ckpt``) continues in place.
+    """
+
+    def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
+        self._claim(config, "hydra.run.dir")
+
+    def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        self._claim(config, "hydra.sweep.dir")
+
+    @staticmethod
+    def _claim(config: DictConfig, key: str) -> None:
+        HydraConfig.instance().set_config(config)  # the dir's ${hydra:…} parts resolve (run_job sets it too)
+        path = Path(OmegaConf.select(config, key))
+        if config.get("ckpt_path") and path.resolve() in Path(config.ckpt_path).resolve().parents:
+            return  # resuming in place
+        if any(o.split("=", 1)[0].lstrip("+~") == key for o in config.hydra.overrides.hydra):
+            if path.is_dir() and any(p.name != ".hydra" and p.suffix != ".log" for p in path.iterdir()):
+                print(f"error: {key}={path} already holds a run; name a new dir, or remove that one first",
+                      file=sys.stderr)
+                sys.exit(BAD_INPUT)
+            return
+        fresh, n = path, 1
+        while True:  # mkdir claims a name: two runs started in the same second cannot both get it
+            try:
+                fresh.mkdir(parents=True)
+                break
+            except FileExistsError:
+                n += 1
+                fresh = path.with_name(f"{path.name}_{n}")
+        with read_write(config.hydra):  # made read-only by HydraConfig above
+            OmegaConf.update(config, key, str(fresh))
+
+
+@contextmanager
+def shielded() -> Iterator[None]:
+    """Ctrl-C and SIGTERM wait while the block runs (saving what an interrupted run had), so a
+    second Ctrl-C cannot cut the files short; the first one was already handled."""
+    handlers = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+
+
+def _interrupt(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt
+
+
+def quote_text(argv: list[str], keys: Iterable[str]) -> list[str]:
+    """``argv`` with the free-text values of ``keys`` (paths, colours) quoted for Hydra where its
+    override grammar cannot read them bare: ``canvas=#a0522d``, ``image=~/photo (1).jpg``. In a
+    multirun (``-m``) the commas still separate the values of a sweep."""
+    sweep = "-m" in argv or "--multirun" in argv
+    quoted = []
+    for arg in argv:
+        key, sep, value = arg.partition("=")
+        if sep and value and key.lstrip("+") in keys and _unreadable(arg):
+            pieces = value.split(",") if sweep else [value]
+            arg = key + "=" + ",".join("'" + piece.replace("\\", "\\\\").replace("'", "\\'") + "'" for piece in pieces)
+        quoted.append(arg)
+    return quoted
+
+
+def _unreadable(override: str) -> str | None:
+    """Hydra's first line of complaint about one override, or None if it reads."""
+    try:
+        OverridesParser.create().parse_overrides([override])
+    except OverrideParseException as error:
+        return str(error).strip().splitlines()[0]
+    return None
+
+
+def command(main: Callable[[], Any], check: Callable[[list[str]], str | None] | None = None,
+            text: Iterable[str] = ()) -> None:
+    """Run a command's Hydra ``main`` from the command line.
+
+    First the command line: ``text`` keys' values are quoted where Hydra needs it; an override
+    Hydra cannot read, or one ``check`` (argv -> message or None) objects to, ends with one line
+    and :data:`BAD_INPUT`. Then SIGTERM is treated as Ctrl-C, and an interrupt the work has already
+    handled (files kept, message printed) ends with :data:`INTERRUPTED`, not a traceback.
+    """
+    sys.argv[1:] = argv = quote_text(sys.argv[1:], text)
+    for arg in argv:
+        if "=" in arg and not arg.startswith("-") and (complaint := _unreadable(arg)):
+            _bad_input(f"cannot read {arg!r} ({complaint}); quote its value: key='...'")
+    if check and (message := check(argv)):
+        _bad_input(message)
+    signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        main()
+    except KeyboardInterrupt:
+        sys.exit(INTERRUPTED)
+
+
+def _bad_input(message: str) -> None:
+    print(message if message.startswith("error: ") else f"error: {message}", file=sys.stderr)
+    sys.exit(BAD_INPUT)

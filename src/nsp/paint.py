@@ -18,13 +18,13 @@ from omegaconf import DictConfig, OmegaConf
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.brushes import get_brush
-from nsp.cli import INTERRUPTED, run_job
+from nsp.cli import INTERRUPTED, command, run_job, shielded
 from nsp.engine import parse_color
 from nsp.io.export import write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
 from nsp.painter.images import load_image, resize
 from nsp.painter.losses import PaintLoss
-from nsp.painter.outputs import similarity, write_strokes_and_png, write_vector_files
+from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, write_vector_files
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer, load_neural
 from nsp.painter.schema import unknown_choice  # also registers ``paint_schema``
@@ -33,6 +33,8 @@ from nsp.style import StyleLoss, WeightsNotFound, load_style_image
 
 POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_frames", "renderer.softness",
             "renderer.block_size", "schedule.max_per_block")
+
+TEXT = ("image", "canvas", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
 
 
 class BadInput(ValueError):
@@ -58,7 +60,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     try:
         parse_color(cfg.canvas)
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
-        photo = load_image(cfg.image)
+        photo = load_image(cfg.image, max_side=max(cfg.work_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0))
         if cfg.renderer.name == "analytic":
             renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
         elif cfg.renderer.checkpoint is None:
@@ -99,8 +101,8 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
 def paint(cfg: DictConfig) -> dict:
     """Paint ``cfg.image``; write the painting's files into ``cfg.output_dir``; return the metrics.
 
-    Interrupted (Ctrl-C) or failing part-way, it still writes ``strokes.json`` and ``final.png``
-    of what was painted, then re-raises.
+    Interrupted (Ctrl-C, SIGTERM) or failing part-way, it still writes ``strokes.json`` and
+    ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises.
     """
     start = time.perf_counter()
     if cfg.threads:
@@ -115,14 +117,16 @@ def paint(cfg: DictConfig) -> dict:
         try:
             strokes = painter.paint(target, cfg.strokes)
         except BaseException:
-            write_strokes_and_png(out, painter.strokes(), *shared)
+            with shielded():
+                write_strokes_and_png(out, painter.strokes(), *shared)
             raise
         if style is not None:
             write_png(out / "style.png", style.image[0])
             try:
                 strokes = paint_style(cfg, painter, strokes, photo, style, writer)
             except BaseException:
-                write_strokes_and_png(out, strokes, *shared)  # the unstyled painting
+                with shielded():
+                    write_strokes_and_png(out, strokes, *shared)  # the unstyled painting
                 raise
     final = write_strokes_and_png(out, strokes, *shared)
     write_vector_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames)
@@ -141,7 +145,9 @@ def main(cfg: DictConfig) -> float | None:
     try:
         metrics = run_job(cfg, paint, bad_input=(BadInput,))
     except KeyboardInterrupt:
-        print(f"interrupted: strokes.json and final.png of what was painted are in {cfg.output_dir}", file=sys.stderr)
+        kept = [name for name in ("strokes.json", "final.png") if (Path(cfg.output_dir) / name).is_file()]
+        print(f"interrupted: {' and '.join(kept)} of what was painted in {cfg.output_dir}" if kept else
+              "interrupted before painting began; nothing written", file=sys.stderr)
         sys.exit(INTERRUPTED)
     if metrics is None:  # a failed job of a sweep, recorded in its dir
         return None
@@ -150,7 +156,10 @@ def main(cfg: DictConfig) -> float | None:
     return metrics["psnr"]
 
 
+def cli() -> None:
+    """The command line: ``python -m nsp.paint``."""
+    command(main, check=unknown_choice, text=TEXT)
+
+
 if __name__ == "__main__":
-    if message := unknown_choice(sys.argv[1:]):
-        sys.exit(message)
-    main()
+    cli()

@@ -6,11 +6,12 @@ Config: ``conf/train/train.yaml``; results in the Hydra run dir (``metrics.json`
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig
 
-from nsp.cli import run_job
+from nsp.cli import INTERRUPTED, command, run_job
 from nsp.training import train
 from nsp.training.schema import misspelt_key, register_configs
 
@@ -19,11 +20,20 @@ register_configs()
 
 @hydra.main(config_path="../../conf/train", config_name="train", version_base="1.3")
 def main(cfg: DictConfig) -> float | None:
-    metrics = run_job(cfg, train)  # a bad value the schema cannot type (e.g. model.size=48): one line, no traceback
+    try:
+        metrics = run_job(cfg, train)  # a bad value the schema cannot type (e.g. model.size=48): one line, no traceback
+    except KeyboardInterrupt:
+        last = Path(cfg.output_dir) / "checkpoints" / "last.ckpt"
+        print(f"interrupted: resume with ckpt_path={last} hydra.run.dir={cfg.output_dir}" if last.is_file() else
+              "interrupted before training began; nothing saved", file=sys.stderr)
+        sys.exit(INTERRUPTED)
     return None if metrics is None else metrics["val/psnr"]
 
 
+def cli() -> None:
+    """The command line: ``python -m nsp.train``."""
+    command(main, check=misspelt_key, text=("ckpt_path", "brush.texture", "hydra.run.dir", "hydra.sweep.dir"))
+
+
 if __name__ == "__main__":
-    if hint := misspelt_key(sys.argv[1:]):
-        sys.exit(hint)
-    main()
+    cli()

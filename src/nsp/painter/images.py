@@ -1,13 +1,14 @@
 """Target photos: a file, or one of the photos that ship with scikit-image / scikit-learn (SPEC §7)."""
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 import torch
 import torch.nn.functional as F
-from PIL import Image
+from PIL import ExifTags, Image, ImageOps
 from torch import Tensor
 
 
@@ -43,28 +44,84 @@ class ImageError(ValueError):
     """An ``image=`` that cannot be painted; the message names it and what is valid."""
 
 
-def load_image(spec: str) -> Tensor:
+VALID = f"give a PNG/JPEG path or one of: {', '.join(BUILTIN)}"
+MAX_PIXELS = 20_000 * 20_000  # photos this large still load with max_side; PIL's own guard stops at 179 M
+WHITE = {"I": 65535, "F": 1.0}  # PIL keeps 16-bit samples in I modes; F is taken as [0, 1]
+TURNED = (5, 6, 7, 8)  # EXIF orientations that swap width and height
+
+
+def load_image(spec: str, max_side: int | None = None) -> Tensor:
     """A built-in photo's name or an image file's path -> (3, H, W) float in [0, 1].
 
-    Transparent pixels are shown over white, as an image viewer does.
+    Upright as the EXIF orientation says and transparent pixels over white, as an image viewer
+    shows it. With ``max_side``, a photo whose long side is longer comes back with long side
+    ``max_side`` (aspect kept), reduced while it is decoded, so the full size is never held as
+    floats (nor, for JPEG, decoded at all).
     """
     if spec in BUILTIN:
-        array = BUILTIN[spec]()
-    else:
-        path = Path(spec)
-        valid = f"give a PNG/JPEG path or one of: {', '.join(BUILTIN)}"
-        if not path.is_file():
-            raise ImageError(f"image={spec}: no such file; {valid}")
-        try:
-            with Image.open(path) as image:
-                rgba = image.convert("RGBA")
-        except (OSError, ValueError, Image.DecompressionBombError) as error:
-            raise ImageError(f"image={spec} is not an image this can read ({error}); {valid}") from None
-        white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
-        array = np.asarray(Image.alpha_composite(white, rgba).convert("RGB"))
-    if array.ndim == 2:  # grayscale built-ins
-        array = np.repeat(array[..., None], 3, -1)
-    return torch.from_numpy(np.array(array[..., :3])).permute(2, 0, 1).float() / 255
+        return _decode(Image.fromarray(BUILTIN[spec]()), max_side)
+    path = Path(spec)
+    if not path.is_file():
+        raise ImageError(f"image={spec}: no such file; {VALID}")
+    with _readable(spec):
+        image = Image.open(path)
+    with image:
+        if image.width * image.height > MAX_PIXELS:
+            raise ImageError(f"image={spec} is {image.width}×{image.height} pixels, over the limit of "
+                             f"{MAX_PIXELS // 10**6} megapixels; give a smaller image")
+        with _readable(spec):
+            return _decode(image, max_side)
+
+
+@contextmanager
+def _readable(spec: str) -> Iterator[None]:
+    """PIL's errors while reading ``spec`` -> one-line ImageErrors.
+
+    PIL's size guard, a module global, is lifted meanwhile: load_image checks the size itself.
+    """
+    guard, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
+    try:
+        yield
+    except (OSError, ValueError, SyntaxError) as error:
+        raise ImageError(f"image={spec} is not an image this can read ({error}); {VALID}") from None
+    finally:
+        Image.MAX_IMAGE_PIXELS = guard
+
+
+def _decode(image: Image.Image, max_side: int | None) -> Tensor:
+    """An opened, not yet loaded PIL image -> (3, H, W) float in [0, 1], long side at most ``max_side``."""
+    width, height = image.size
+    shrink = max_side is not None and max(width, height) > max_side
+    if shrink:
+        height, width = long_side(height, width, max_side)
+        image.draft(None, (width, height))  # JPEG only: decode at 1/2, 1/4 or 1/8 scale, never below this
+    if image.getexif().get(ExifTags.Base.Orientation) in TURNED:
+        width, height = height, width
+    ImageOps.exif_transpose(image, in_place=True)
+    image = _resizable(image)
+    if shrink:
+        image = image.resize((width, height), Image.Resampling.LANCZOS, reducing_gap=3.0)
+    return _tensor(image)
+
+
+def _resizable(image: Image.Image) -> Image.Image:
+    """Any PIL image -> the same picture in a mode PIL resamples well: L, LA, RGB, RGBA, I or F."""
+    if image.mode in WHITE or (image.mode in ("L", "LA", "RGB", "RGBA") and "transparency" not in image.info):
+        return image
+    if image.mode.startswith("I;16"):  # PIL cannot reduce these
+        return image.convert("I")
+    return image.convert("RGBA" if image.has_transparency_data else "RGB")  # palette, CMYK, 1-bit, ...
+
+
+def _tensor(image: Image.Image) -> Tensor:
+    """A PIL image in L, LA, RGB, RGBA, I or F -> (3, H, W) float in [0, 1], alpha over white."""
+    if image.mode in ("LA", "RGBA"):
+        white = Image.new("RGBA", image.size, "white")
+        image = Image.alpha_composite(white, image.convert("RGBA")).convert("RGB")
+    pixels = torch.from_numpy(np.array(image))  # (H, W, 3) or (H, W)
+    photo = torch.empty(3, image.height, image.width)  # one float copy, whatever the samples' type
+    photo.copy_(pixels.permute(2, 0, 1) if pixels.ndim == 3 else pixels)
+    return photo.div_(WHITE.get(image.mode, 255)).clamp_(0, 1)
 
 
 def long_side(height: int, width: int, size: int) -> tuple[int, int]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import pickle
 import time
+import warnings
 from pathlib import Path
 from typing import Sequence
 
@@ -12,18 +13,20 @@ import torch
 from hydra.utils import instantiate
 from lightning.pytorch.callbacks import Callback, LearningRateMonitor, ModelCheckpoint, RichProgressBar
 from lightning.pytorch.loggers import TensorBoardLogger
+from lightning.pytorch.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
 from nsp.renderers import build
 from nsp.training.data import StrokeData
 from nsp.training.module import RendererModule
+from nsp.training.schema import check
 
 METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha")
 
 
 class SaveOnInterrupt(Callback):
-    """Saves a resumable checkpoint when training is interrupted (Ctrl-C).
+    """Saves a resumable checkpoint when training is interrupted (Ctrl-C, SIGTERM).
 
     Lightning's ``OnExceptionCheckpoint`` does too, but also turns every ``fit`` into a resume from the
     last checkpoint it finds.
@@ -33,7 +36,7 @@ class SaveOnInterrupt(Callback):
         self.path = path
 
     def on_exception(self, trainer: L.Trainer, pl_module: L.LightningModule, exception: BaseException) -> None:
-        if isinstance(exception, KeyboardInterrupt):
+        if isinstance(exception, (KeyboardInterrupt, SIGTERMException)):
             trainer.save_checkpoint(self.path)
 
 
@@ -42,7 +45,12 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
 
     The final model is scored on the validation strokes and then, once, on the test strokes.
     ``callbacks`` are added to the trainer's own. Returns the metrics written to ``metrics.json``.
+    Raises ``ValueError`` for a value it cannot train with, before any work; ``KeyboardInterrupt``
+    once an interrupted run (Ctrl-C, SIGTERM) has saved ``checkpoints/last.ckpt`` and its metrics.
     """
+    check(cfg)
+    if cfg.ckpt_path is not None:
+        check_checkpoint(cfg.ckpt_path, cfg.renderer.name, cfg.brush.name, cfg.model.size)
     L.seed_everything(cfg.seed, workers=True)
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
@@ -59,7 +67,9 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
     checkpoints = out / "checkpoints"
     callbacks = [
         *callbacks,
-        ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True),
+        # no version counter: a resumed run keeps best.ckpt and last.ckpt current in place
+        ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True,
+                        enable_version_counter=False),
         SaveOnInterrupt(checkpoints / "last.ckpt"),
         LearningRateMonitor(),
     ]
@@ -73,10 +83,13 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
 
     start = time.perf_counter()
     try:
-        trainer.fit(model, datamodule=data, ckpt_path=cfg.ckpt_path)
-    except SystemExit:  # Lightning exits after a Ctrl-C, once last.ckpt is saved
+        with warnings.catch_warnings():  # StrokeData's sampler resumes mid-epoch exactly (EpochSampler.done)
+            warnings.filterwarnings("ignore", "You're resuming from a checkpoint that ended before the epoch ended")
+            trainer.fit(model, datamodule=data, ckpt_path=cfg.ckpt_path)
+    except SystemExit:  # Lightning exits after Ctrl-C or SIGTERM, once last.ckpt is saved
         _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
-        raise
+        raise KeyboardInterrupt from None
+    trainer.save_checkpoint(checkpoints / "last.ckpt")  # the final step's, also where max_steps ends mid-epoch
     scores = trainer.validate(model, datamodule=data, verbose=False)[0] | trainer.test(model, datamodule=data, verbose=False)[0]
     return _finish(trainer, logger, cfg, scores, start, "completed")
 
@@ -103,19 +116,36 @@ def _finish(trainer: L.Trainer, logger: TensorBoardLogger, cfg: DictConfig, scor
     return metrics
 
 
+def read_checkpoint(path, map_location="cpu") -> dict:
+    """A checkpoint of ``python -m nsp.train`` as saved; raises ``ValueError`` (one line) for a file
+    that is missing or is not one (truncated, another program's)."""
+    if not Path(path).is_file():
+        raise ValueError(f"renderer checkpoint {path} does not exist")
+    try:
+        ckpt = torch.load(path, map_location=map_location, weights_only=True)
+        ckpt["hyper_parameters"]["renderer"]["size"], ckpt["hyper_parameters"]["brush"], ckpt["state_dict"]
+    except (pickle.UnpicklingError, RuntimeError, KeyError, TypeError, IndexError, EOFError, ValueError) as error:
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise ValueError(f"{path} is not an nsp renderer checkpoint (train one with `python -m nsp.train`): {reason}") from None
+    return ckpt
+
+
+def check_checkpoint(path, renderer: str, brush: str, size: int) -> None:
+    """Raise ``ValueError`` unless ``path`` is a checkpoint of this renderer, brush and size, to resume."""
+    saved = read_checkpoint(path)["hyper_parameters"]
+    theirs = (saved["renderer"].get("name"), saved["brush"], saved["renderer"]["size"])
+    if theirs != (renderer, brush, size):
+        raise ValueError(f"ckpt_path={path} holds renderer={theirs[0]} brush={theirs[1]} model.size={theirs[2]}; "
+                         f"this run is renderer={renderer} brush={brush} model.size={size}: resume with those")
+
+
 def load_renderer(path, map_location="cpu") -> tuple[nn.Module, str, int]:
     """The renderer saved in a checkpoint of ``python -m nsp.train``, in eval mode, its brush and size.
 
     Raises ``ValueError`` for a file that is not such a checkpoint.
     """
-    if not Path(path).is_file():
-        raise ValueError(f"renderer checkpoint {path} does not exist")
-    try:
-        ckpt = torch.load(path, map_location=map_location, weights_only=True)
-        config, brush = ckpt["hyper_parameters"]["renderer"], ckpt["hyper_parameters"]["brush"]
-    except (pickle.UnpicklingError, RuntimeError, KeyError, TypeError, IndexError) as error:
-        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise ValueError(f"{path} is not an nsp renderer checkpoint (train one with `python -m nsp.train`): {reason}") from None
+    ckpt = read_checkpoint(path, map_location)
+    config, brush = ckpt["hyper_parameters"]["renderer"], ckpt["hyper_parameters"]["brush"]
     renderer = build(config, brush)
     prefix = "renderer."
     renderer.load_state_dict({k[len(prefix):]: v for k, v in ckpt["state_dict"].items() if k.startswith(prefix)})

@@ -47,20 +47,26 @@ class RandomStrokes(Dataset):
 
 
 class EpochSampler(Sampler[int]):
-    """Batch indices of one epoch, new ones every epoch (Lightning calls ``set_epoch``), split over ranks."""
+    """Batch indices of one epoch, new ones every epoch (Lightning calls ``set_epoch``), split over ranks.
 
-    def __init__(self, batches: int, rank: int = 0, world_size: int = 1):
-        self.batches, self.rank, self.world_size, self.epoch = batches, rank, world_size, 0
+    ``done``: batches of the current epoch this rank trained on before a resume mid-epoch. They are
+    skipped once, so the resumed run sees exactly the batches the uninterrupted one would; the
+    length stays the whole epoch's, as Lightning counts the restored batches in it.
+    """
+
+    def __init__(self, batches: int, rank: int = 0, world_size: int = 1, done: int = 0):
+        self.batches, self.rank, self.world_size, self.epoch, self.done = batches, rank, world_size, 0, done
 
     def set_epoch(self, epoch: int) -> None:
-        self.epoch = epoch
+        if epoch != self.epoch:
+            self.epoch, self.done = epoch, 0
 
     def __len__(self) -> int:
         return len(range(self.rank, self.batches, self.world_size))
 
     def __iter__(self):
         start = self.epoch * self.batches
-        return iter(range(start + self.rank, start + self.batches, self.world_size))
+        return iter(range(start + self.rank, start + self.batches, self.world_size)[self.done:])
 
 
 class StrokeData(L.LightningDataModule):
@@ -107,11 +113,16 @@ class StrokeData(L.LightningDataModule):
         self.train_set = RandomStrokes(self.brush, self.batch_size, self.seed, size, self.compile)
 
     def train_dataloader(self) -> DataLoader:
-        rank, world = (self.trainer.global_rank, self.trainer.world_size) if self.trainer else (0, 1)
+        sampler = EpochSampler(self.batches)
+        if self.trainer:  # a resumed run has its epoch and step restored by now: skip the batches trained on
+            trainer = self.trainer
+            sampler = EpochSampler(self.batches, trainer.global_rank, trainer.world_size)
+            sampler.epoch = trainer.current_epoch
+            sampler.done = min(max(trainer.global_step - trainer.current_epoch * len(sampler), 0), len(sampler))
         return DataLoader(
             self.train_set,
             batch_size=None,  # an item is already a batch
-            sampler=EpochSampler(self.batches, rank, world),
+            sampler=sampler,
             num_workers=self.num_workers,
             persistent_workers=self.num_workers > 0,
         )

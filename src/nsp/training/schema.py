@@ -141,3 +141,25 @@ def misspelt_key(argv: list[str]) -> Optional[str]:
                 return f"Could not override '{key}': no such key. Did you mean '{where}'?"
             node = node[part]
     return None
+
+
+def check(cfg: Any) -> None:
+    """Raise ``ValueError`` (one line naming the value and what is valid) for a composed training
+    config that types cannot catch: sizes and counts that would train nothing, or train wrongly."""
+    data, model = cfg.data, cfg.model
+    for key in ("batch_size", "epoch_size", "val_size", "test_size"):
+        if data[key] < 1:
+            raise ValueError(f"data.{key}={data[key]}: expected a positive number of strokes")
+    if data.epoch_size < data.batch_size:
+        raise ValueError(f"data.epoch_size={data.epoch_size} is less than one batch (data.batch_size={data.batch_size})")
+    if data.num_workers < 0:
+        raise ValueError(f"data.num_workers={data.num_workers}: expected 0 (render in the training process) or more")
+    if model.width <= 0:
+        raise ValueError(f"model.width={model.width}: expected a positive channel-width multiplier (1 = the paper's)")
+    if cfg.renderer.size != model.size:
+        raise ValueError(f"renderer.size={cfg.renderer.size} differs from model.size={model.size}: set model.size, "
+                         f"the renderer and the training strokes follow it")
+    if model.optimizer.get("lr", 1) <= 0:
+        raise ValueError(f"model.optimizer.lr={model.optimizer.lr}: expected a positive learning rate")
+    if cfg.trainer.max_steps < -1 or cfg.trainer.max_steps == 0:
+        raise ValueError(f"trainer.max_steps={cfg.trainer.max_steps}: expected a positive number of steps, or -1 (no limit)")

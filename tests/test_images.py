@@ -1,0 +1,164 @@
+"""``load_image``: every kind of file shows as an image viewer shows it, and large photos load small."""
+import struct
+import subprocess
+import sys
+import zlib
+from pathlib import Path
+
+import pytest
+import torch
+from PIL import Image
+
+from nsp.painter.images import ImageError, load_image, long_side
+
+RED, BLUE, WHITE = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 1.0)
+PEAK_GROWTH = r"""
+import re, sys
+from nsp.painter.images import load_image
+
+def peak_kib():
+    return int(re.search(r"VmHWM:\s+(\d+)", open("/proc/self/status").read())[1])
+
+before = peak_kib()
+load_image(sys.argv[1], max_side=int(sys.argv[2]))
+print(peak_kib() - before)
+"""  # run as `python -c PEAK_GROWTH PATH MAX_SIDE`: KiB by which loading raised the process's peak memory
+
+
+def assert_colour(photo: torch.Tensor, row: int, column: int, expected: tuple[float, ...], atol: float):
+    """photo (3, H, W): its pixel at (row, column) is the RGB ``expected`` within ``atol``."""
+    found = [round(value, 3) for value in photo[:, row, column].tolist()]
+    torch.testing.assert_close(photo[:, row, column], torch.tensor(expected), atol=atol, rtol=0,
+                               msg=f"pixel ({row}, {column}) is {found}, expected {expected}")
+
+
+def header_only_png(path: Path, width: int, height: int) -> Path:
+    """A PNG that claims width×height 8-bit grey pixels and holds none."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IEND", b""))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("mode", "value", "suffix", "expected"),
+    [
+        ("I;16", 32768, "png", 0.5),  # PIL's convert("RGBA") clips this to white
+        ("I", 16384, "tif", 0.25),
+        ("F", 0.25, "tif", 0.25),
+    ],
+)
+def test_high_bit_depth_grey_keeps_its_brightness(tmp_path, mode, value, suffix, expected):
+    path = tmp_path / f"grey.{suffix}"
+    Image.new(mode, (300, 200), value).save(path)
+    with Image.open(path) as saved:
+        assert saved.mode == mode
+    photo = load_image(str(path))
+    assert photo.shape == (3, 200, 300) and photo.dtype == torch.float32
+    torch.testing.assert_close(photo, torch.full_like(photo, expected), atol=1e-4, rtol=0)
+    small = load_image(str(path), max_side=9)  # 33 times smaller: PIL reduces, then resamples
+    assert small.shape == (3, *long_side(200, 300, 9))
+    torch.testing.assert_close(small, torch.full_like(small, expected), atol=1e-3, rtol=0)
+
+
+@pytest.mark.parametrize(
+    ("mode", "value", "suffix", "expected"),
+    [
+        ("L", 128, "png", (128 / 255,) * 3),
+        ("LA", (0, 128), "png", (127 / 255,) * 3),  # half-transparent black over white
+        ("RGBA", (0, 0, 255, 0), "png", WHITE),
+        ("1", 0, "png", (0.0,) * 3),
+        ("CMYK", (0, 255, 255, 0), "jpg", RED),
+        ("RGB", (0, 0, 255), "jpg", BLUE),
+    ],
+)
+def test_every_colour_mode_loads_as_rgb_over_white(tmp_path, mode, value, suffix, expected):
+    path = tmp_path / f"flat.{suffix}"
+    Image.new(mode, (16, 8), value).save(path)
+    photo = load_image(str(path))
+    assert photo.shape == (3, 8, 16)
+    assert_colour(photo, 4, 8, expected, atol=0.02)
+
+
+def test_a_palette_image_shows_its_transparent_index_as_white(tmp_path):
+    image = Image.new("P", (4, 2), 1)
+    image.putpalette([255, 0, 0, 0, 0, 255])
+    image.putpixel((0, 0), 0)
+    image.save(tmp_path / "palette.png", transparency=0)
+    photo = load_image(str(tmp_path / "palette.png"))
+    assert_colour(photo, 0, 0, WHITE, atol=0)
+    assert_colour(photo, 1, 3, BLUE, atol=0)
+
+
+@pytest.mark.parametrize(("orientation", "red"), [(6, (2, 17)), (8, (27, 2))])
+def test_a_jpeg_is_turned_upright_by_its_exif_orientation(tmp_path, orientation, red):
+    """Stored 30 wide × 20 high with a red top-left corner; 6 turns it clockwise (the corner goes
+    top-right), 8 anticlockwise (bottom-left)."""
+    image = Image.new("RGB", (30, 20), "white")
+    image.paste((255, 0, 0), (0, 0, 8, 8))
+    exif = Image.Exif()
+    exif[0x0112] = orientation
+    image.save(tmp_path / "turned.jpg", exif=exif, quality=95)
+    photo = load_image(str(tmp_path / "turned.jpg"))
+    assert photo.shape == (3, 30, 20)
+    assert_colour(photo, *red, RED, atol=0.05)
+    assert_colour(photo, 29 - red[0], 19 - red[1], WHITE, atol=0.05)
+
+
+def test_a_turned_jpeg_shrinks_to_max_side_with_its_aspect(tmp_path):
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    Image.new("RGB", (1203, 801), "white").save(tmp_path / "turned.jpg", exif=exif)
+    photo = load_image(str(tmp_path / "turned.jpg"), max_side=100)
+    assert photo.shape == (3, *long_side(1203, 801, 100)) == (3, 100, 67)
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").is_file(), reason="reads the peak memory Linux reports")
+def test_a_large_jpeg_is_decoded_at_reduced_scale(tmp_path):
+    """6000×4000: its full decode alone is 96 MB of PIL pixels (288 MB as floats); with max_side it
+    must cost a few MB. Measured in a fresh process, whose peak memory (VmHWM) is its own."""
+    path = tmp_path / "large.jpg"
+    image = Image.new("RGB", (6000, 4000), (0, 0, 255))
+    image.paste((255, 0, 0), (0, 0, 3000, 4000))
+    image.save(path, quality=90)
+    del image
+    photo = load_image(str(path), max_side=512)
+    assert photo.shape == (3, *long_side(4000, 6000, 512)) == (3, 341, 512)
+    assert_colour(photo, 170, 100, RED, atol=0.05)
+    assert_colour(photo, 170, 400, BLUE, atol=0.05)
+    grown_kib = int(subprocess.run([sys.executable, "-c", PEAK_GROWTH, str(path), "512"], capture_output=True,
+                                   text=True, check=True).stdout)
+    assert grown_kib < 32 * 1024, f"peak memory grew by {grown_kib / 1024:.0f} MiB while loading"
+
+
+def test_a_built_in_photo_shrinks_like_a_file():
+    full = load_image("chelsea")
+    small = load_image("chelsea", max_side=100)
+    assert small.shape == (3, *long_side(*full.shape[-2:], 100))
+    assert torch.equal(load_image("chelsea", max_side=1000), full)
+    downsized = torch.nn.functional.interpolate(full[None], size=small.shape[-2:], mode="area")[0]
+    assert (small - downsized).abs().mean() < 0.02
+
+
+def test_a_file_that_is_not_an_image_names_itself(tmp_path):
+    path = tmp_path / "notes.txt"
+    path.write_text("not pixels")
+    with pytest.raises(ImageError, match=rf"^image={path} is not an image this can read .*; give a PNG/JPEG path"):
+        load_image(str(path))
+
+
+def test_an_absurdly_large_image_names_the_limit(tmp_path):
+    path = header_only_png(tmp_path / "bomb.png", 30_000, 30_000)
+    with pytest.raises(ImageError, match=rf"^image={path} is 30000×30000 pixels, over the limit of 400 megapixels"):
+        load_image(str(path), max_side=512)
+
+
+def test_a_20000_pixel_square_passes_the_size_limit(tmp_path):
+    """PIL alone refuses 400 megapixels; this header-only file gets as far as decoding."""
+    path = header_only_png(tmp_path / "big.png", 20_000, 20_000)
+    with pytest.raises(ImageError, match=rf"^image={path} is not an image this can read") as error:
+        load_image(str(path), max_side=512)
+    assert "decompression bomb" not in str(error.value)
+    assert Image.MAX_IMAGE_PIXELS is not None  # PIL's guard is back for everyone else

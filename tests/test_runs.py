@@ -1,0 +1,148 @@
+"""Runs that keep what they had: one run per dir, SIGTERM handled as Ctrl-C, exact resumes in place,
+and command lines whose paths and colours need no quoting."""
+import copy
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import lightning as L
+import numpy as np
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import read_write
+from PIL import Image
+from test_training import compose_train
+
+from nsp.cli import INTERRUPTED, RunDirs, quote_text
+from nsp.io.strokes import load_strokes
+from nsp.painter.schema import PaintConfig  # noqa: F401  (registers ``paint_schema``)
+from nsp.training import check_checkpoint, train
+
+ROOT = Path(__file__).parents[1]
+TINY_PAINT = ["strokes=8", "work_size=48", "render_size=64", "animation_size=32", "progress=false"]
+TINY_TRAIN = ["renderer=dcgan", "brush=tape", "data.num_workers=0"]
+
+
+def command(name: str, *args: str, cwd: Path = ROOT) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", name, *args], cwd=cwd, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def wait_for(path: Path, process: subprocess.Popen, timeout: float = 120) -> None:
+    deadline = time.monotonic() + timeout
+    while not path.exists():
+        assert process.poll() is None, process.communicate()[1]
+        assert time.monotonic() < deadline, f"{path} never appeared"
+        time.sleep(0.2)
+
+
+def test_a_named_dir_that_holds_a_run_is_refused_before_anything_is_written(tmp_path):
+    first = command("nsp.paint", *TINY_PAINT, f"hydra.run.dir={tmp_path}")
+    assert first.wait(timeout=300) == 0
+    before = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")}
+    second = command("nsp.paint", *TINY_PAINT, "seed=1", f"hydra.run.dir={tmp_path}")
+    assert second.wait(timeout=300) == 2
+    assert second.stderr.read().strip() == f"error: hydra.run.dir={tmp_path} already holds a run; name a new dir, or remove that one first"
+    assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")} == before
+
+
+def test_default_dirs_are_claimed_once_so_runs_started_in_the_same_second_never_share_one(tmp_path):
+    with initialize_config_dir(str(ROOT / "conf" / "paint"), version_base="1.3"):
+        cfg = compose("paint", overrides=[], return_hydra_config=True)
+    default = tmp_path / "outputs" / "12-00-00_oilpaint"
+    dirs = []
+    for _ in range(3):
+        run = copy.deepcopy(cfg)
+        with read_write(run):
+            run.hydra.run.dir = str(default)
+        RunDirs().on_run_start(run)
+        dirs.append(run.hydra.run.dir)
+    HydraConfig.instance().cfg = None
+    assert dirs == [str(default), f"{default}_2", f"{default}_3"]
+    assert all(Path(d).is_dir() for d in dirs)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_signalled_painting_keeps_what_it_painted_and_exits_interrupted(sig, tmp_path):
+    run = command("nsp.paint", "strokes=3000", "work_size=128", "progress=false", f"hydra.run.dir={tmp_path}")
+    wait_for(tmp_path / "tensorboard", run)
+    time.sleep(3)  # some strokes in
+    run.send_signal(sig)
+    assert run.wait(timeout=120) == INTERRUPTED
+    stderr = run.stderr.read()
+    assert "Traceback" not in stderr
+    assert stderr.strip().splitlines()[-1] == f"interrupted: strokes.json and final.png of what was painted in {tmp_path}"
+    assert 0 < len(load_strokes(tmp_path / "strokes.json").strokes) < 3000
+    assert Image.open(tmp_path / "final.png").size == (1024, 1024)
+    assert not list(tmp_path.glob("*.tmp*"))
+
+
+def test_sigterm_on_training_saves_the_stopping_step_and_exits_interrupted(tmp_path):
+    run = command("nsp.train", *TINY_TRAIN, "model.width=0.125", "data.batch_size=8", "data.val_size=16", "data.test_size=16",
+                  "trainer.max_steps=100000", "trainer.enable_progress_bar=false", f"hydra.run.dir={tmp_path}")
+    wait_for(tmp_path / "checkpoints", run, timeout=180)  # the first validation is done: training runs
+    run.send_signal(signal.SIGTERM)
+    assert run.wait(timeout=120) == INTERRUPTED
+    assert run.stderr.read().strip().splitlines()[-1] == (
+        f"interrupted: resume with ckpt_path={tmp_path}/checkpoints/last.ckpt hydra.run.dir={tmp_path}")
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    saved = torch.load(tmp_path / "checkpoints" / "last.ckpt", weights_only=True)
+    assert metrics["status"] == "interrupted" and saved["global_step"] == metrics["steps"] > 0
+
+
+def test_a_resume_in_place_is_exact_across_a_stop_mid_epoch(tmp_path):
+    class CtrlC(L.Callback):  # epochs of 4 batches: stop in the second one, after step 6's update
+        def on_train_batch_end(self, trainer, *args):
+            if trainer.global_step == 6:
+                raise KeyboardInterrupt
+
+    straight = train(compose_train(tmp_path / "straight", *TINY_TRAIN, "trainer.max_steps=10"))
+    with pytest.raises(KeyboardInterrupt):
+        train(compose_train(tmp_path / "stopped", *TINY_TRAIN, "trainer.max_steps=10"), callbacks=[CtrlC()])
+    last = tmp_path / "stopped" / "checkpoints" / "last.ckpt"
+    resumed = train(compose_train(tmp_path / "stopped", *TINY_TRAIN, "trainer.max_steps=10", f"ckpt_path={last}"))
+    assert sorted(p.name for p in last.parent.iterdir()) == ["best.ckpt", "last.ckpt"]  # no last-v1.ckpt
+    a, b = (torch.load(p / "checkpoints" / "last.ckpt", weights_only=True) for p in (tmp_path / "straight", tmp_path / "stopped"))
+    assert a["global_step"] == b["global_step"] == 10
+    assert all(torch.equal(a["state_dict"][k], b["state_dict"][k]) for k in a["state_dict"])
+    assert resumed["val/psnr"] == straight["val/psnr"]
+
+
+def test_a_checkpoint_that_cannot_be_resumed_is_one_line(tmp_path):
+    train(compose_train(tmp_path, *TINY_TRAIN, "trainer.max_steps=2"))
+    good = tmp_path / "checkpoints" / "last.ckpt"
+    (tmp_path / "cut.ckpt").write_bytes(good.read_bytes()[:1000])
+    (tmp_path / "noise.ckpt").write_bytes(np.random.default_rng(0).bytes(5000))
+    cases = {
+        tmp_path / "missing.ckpt": "does not exist",
+        tmp_path / "cut.ckpt": "is not an nsp renderer checkpoint",
+        tmp_path / "noise.ckpt": "is not an nsp renderer checkpoint",
+    }
+    for path, message in cases.items():
+        with pytest.raises(ValueError, match=message) as error:
+            check_checkpoint(path, "dcgan", "tape", 32)
+        assert "\n" not in str(error.value)
+    with pytest.raises(ValueError, match="holds renderer=dcgan brush=tape model.size=32; this run is renderer=dual brush=tape"):
+        check_checkpoint(good, "dual", "tape", 32)
+
+
+def test_paths_and_colours_are_quoted_for_hydra_where_it_needs_it():
+    assert quote_text(["canvas=#a0522d", "strokes=10", "image=~/my photo (1).jpg"], ["canvas", "image"]) == [
+        "canvas='#a0522d'", "strokes=10", "image='~/my photo (1).jpg'"]
+    assert quote_text(["-m", "image=a[1].png,b.png"], ["image"]) == ["-m", "image='a[1].png','b.png'"]
+    assert quote_text(["image=it's=é.png"], ["image"]) == ["image='it\\'s=é.png'"]
+    assert quote_text(["image=plain.png"], ["image"]) == ["image=plain.png"]
+
+
+def test_a_painting_reads_an_unquoted_colour_and_an_awkward_path(tmp_path):
+    photo = tmp_path / "été (1) [x]=~.png"
+    Image.fromarray(np.full((20, 30, 3), 200, np.uint8)).save(photo)
+    run = command("nsp.paint", *TINY_PAINT, f"image={photo}", "canvas=#a0522d", f"hydra.run.dir={tmp_path / 'run'}")
+    assert run.wait(timeout=300) == 0, run.stderr.read()
+    assert load_strokes(tmp_path / "run" / "strokes.json").background == "#a0522d"
+    assert Image.open(tmp_path / "run" / "final.png").size == (64, 43)
