@@ -1,9 +1,15 @@
 """A sweep outlives a bad job: the job records why it failed, the others run, the sweep ends naming it."""
 import json
+import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import pytest
+
+from nsp.io.strokes import load_strokes
 from nsp.reporting import write_report
 
 TINY_TRAIN = ["model.width=0.125", "trainer.max_steps=2", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16",
@@ -45,3 +51,27 @@ def test_a_single_run_with_a_bad_value_is_one_line_and_exit_2(tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert (done.returncode, done.stderr.strip().splitlines()[-1]) == (2, "error: renderer size must be one of 32, 64, 128, got 48")
     assert "Traceback" not in done.stderr and not (tmp_path / "metrics.json").exists()
+
+
+@pytest.mark.parametrize(("sig", "whom"), [(signal.SIGINT, "group"), (signal.SIGTERM, "parent")])
+def test_an_interrupted_parallel_sweep_keeps_each_jobs_painting_and_starts_no_other(sig, whom, tmp_path):
+    """Ctrl-C reaches every process of the terminal's group; SIGTERM (``timeout``, Slurm) the parent only."""
+    run = subprocess.Popen([sys.executable, "-m", "nsp.paint", "-m", "image=astronaut,chelsea,coffee", "strokes=20000",
+                            "work_size=128", "progress=false", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
+                            f"hydra.sweep.dir={tmp_path}"],
+                           start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 180
+    while not all((tmp_path / job / "tensorboard").exists() for job in ("0_oilpaint", "1_oilpaint")):
+        assert run.poll() is None and time.monotonic() < deadline, run.communicate()[1]
+        time.sleep(0.5)
+    time.sleep(3)
+    os.killpg(run.pid, sig) if whom == "group" else run.send_signal(sig)
+    _, stderr = run.communicate(timeout=180)
+    assert run.returncode == 130 and "Traceback" not in stderr
+    assert stderr.strip().splitlines()[-1] == f"interrupted: each of the 3 jobs kept what it had; per job: python -m nsp.report {tmp_path}"
+    for job in ("0_oilpaint", "1_oilpaint"):
+        assert metrics(tmp_path / job)["status"] == "interrupted"
+        assert 0 < len(load_strokes(tmp_path / job / "strokes.json").strokes) < 20000
+        assert (tmp_path / job / "final.png").is_file()
+    assert metrics(tmp_path / "2_oilpaint") == {"status": "interrupted", "error": "the sweep was interrupted before this job began"}
+    assert not (tmp_path / "2_oilpaint" / "strokes.json").exists()

@@ -4,7 +4,7 @@ one bad job.
 A single run that cannot start exits with one line, ``error: …``, and :data:`BAD_INPUT`. In a
 multirun (``-m``) the same job instead records why it failed in its own dir (``metrics.json`` with
 ``"status": "failed"`` and the one-line ``"error"``; a crash's traceback in ``traceback.txt``) and
-returns, so the launcher goes on with the next job; :class:`FailedJobs` then ends the sweep with one
+returns, so the launcher goes on with the next job; :class:`Sweeps` then ends the sweep with one
 line naming the failed jobs and :data:`FAILED`. ``python -m nsp.report`` lists them as failed rows.
 
 Ctrl-C and SIGTERM (``timeout``, Slurm, ``docker stop``) both interrupt: the work keeps what it had
@@ -13,6 +13,7 @@ and the command exits with :data:`INTERRUPTED`. :class:`RunDirs` keeps every run
 from __future__ import annotations
 
 import json
+import os
 import signal
 import sys
 import traceback
@@ -36,43 +37,82 @@ def in_sweep() -> bool:
     return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
 
 
-def record_failure(out: Path, error: str) -> None:
-    """Write the failed job's ``metrics.json``: its status and the one-line reason."""
+STOPPED = ".interrupted"  # in a sweep's dir: Ctrl-C or SIGTERM reached the sweep; no further job starts
+
+
+def record(out: Path, status: str, error: str) -> None:
+    """Write the job's ``metrics.json`` where the work did not: its status and the one-line reason."""
     out.mkdir(parents=True, exist_ok=True)
-    (out / "metrics.json").write_text(json.dumps({"status": "failed", "error": error}, indent=2) + "\n")
+    if status == "failed" or not (out / "metrics.json").is_file():
+        (out / "metrics.json").write_text(json.dumps({"status": status, "error": error}, indent=2) + "\n")
 
 
 def run_job(cfg: DictConfig, work: Callable[[DictConfig], dict], bad_input: tuple[type[Exception], ...] = (ValueError,)) -> dict | None:
-    """``work(cfg)``'s metrics; on an error, one line and an exit in a single run, a failure record
-    in the job's dir in a sweep (returns None).
+    """``work(cfg)``'s metrics; on an error, one line and an exit in a single run, a record in the
+    job's dir in a sweep (returns None).
 
     ``bad_input``: the exceptions whose message is the whole story (a wrong value); any other error
-    in a sweep also becomes a record, with its traceback in ``traceback.txt``.
+    in a sweep also becomes a record, with its traceback in ``traceback.txt``. An interrupted job
+    of a sweep (its work has kept what it had) is recorded as such, and the jobs after it do not start.
     """
     out = Path(cfg.output_dir)
+    stop = Path(HydraConfig.get().sweep.dir) / STOPPED if in_sweep() else None
+    if stop is not None and stop.exists():
+        record(out, "interrupted", "the sweep was interrupted before this job began")
+        return None
     try:
         return work(cfg)
     except bad_input as error:
-        if not in_sweep():
+        if stop is None:
             print(f"error: {error}", file=sys.stderr)
             sys.exit(BAD_INPUT)
-        record_failure(out, str(error))
+        record(out, "failed", str(error))
         print(f"error: {out.name}: {error}", file=sys.stderr)
     except Exception as error:
-        if not in_sweep():
+        if stop is None:
             raise
-        record_failure(out, f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error).strip() else ''}")
+        record(out, "failed", f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error).strip() else ''}")
         (out / "traceback.txt").write_text(traceback.format_exc())
         print(f"error: {out.name}: {type(error).__name__} (traceback in {out / 'traceback.txt'})", file=sys.stderr)
+    except KeyboardInterrupt:
+        if stop is None:
+            raise
+        stop.touch()
+        record(out, "interrupted", "interrupted (Ctrl-C or SIGTERM); the job kept what it had")
     return None
 
 
-class FailedJobs(Callback):
-    """Ends a multirun whose jobs recorded failures with one line and exit status :data:`FAILED`."""
+class Sweeps(Callback):
+    """How a multirun ends: with one line and :data:`FAILED` when jobs recorded failures, with one
+    line and :data:`INTERRUPTED` after Ctrl-C or SIGTERM.
+
+    Under the joblib launcher the jobs run in worker processes: Ctrl-C reaches them from the terminal
+    and each keeps what it had, while this process waits for them instead of killing them mid-save
+    (SIGTERM, sent to this process alone, is passed on to them as Ctrl-C).
+    """
+
+    def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        if "joblib" not in str(config.hydra.launcher.get("_target_", "")):
+            return  # jobs run in this process: Ctrl-C interrupts the job itself
+        stop = Path(config.hydra.sweep.dir) / STOPPED
+
+        def wait(signum: int, frame: Any) -> None:
+            stop.parent.mkdir(parents=True, exist_ok=True)
+            stop.touch()
+            if signum == signal.SIGTERM:
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+                os.killpg(os.getpgrp(), signal.SIGINT)
+
+        signal.signal(signal.SIGINT, wait)
+        signal.signal(signal.SIGTERM, wait)
 
     def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
         sweep = Path(config.hydra.sweep.dir)
         jobs = [p for p in sorted(sweep.iterdir()) if (p / ".hydra").is_dir()] if sweep.is_dir() else []
+        if (sweep / STOPPED).exists():
+            print(f"interrupted: each of the {len(jobs)} jobs kept what it had; per job: python -m nsp.report {sweep}",
+                  file=sys.stderr)
+            sys.exit(INTERRUPTED)
         failed = [p.name for p in jobs if _status(p / "metrics.json") == "failed"]
         if failed:
             print(f"{len(failed)} of {len(jobs)} jobs failed ({', '.join(failed)}); the others finished. "

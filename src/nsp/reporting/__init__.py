@@ -34,7 +34,7 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
         lines += ["", "Every job: " + " ".join(f"`{key}={value}`" for key, value in common.items())]
     lines += ["", "## Jobs", "", to_markdown(*job_rows(jobs))]
     if errors := [job for job in jobs if job.error]:
-        lines += ["Why jobs failed:", ""] + [f"- job {job.num}: {job.error}" for job in errors] + [""]
+        lines += ["Why jobs did not complete:", ""] + [f"- job {job.num}: {job.error}" for job in errors] + [""]
     trained = [job for job in jobs if job.choice("renderer") is not None]  # a folder may mix paintings in
     if trained and is_renderer_sweep(trained):
         jobs = trained
