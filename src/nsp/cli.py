@@ -21,12 +21,14 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
+from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.errors import OverrideParseException
+from hydra.errors import HydraException, InstantiationException, OverrideParseException
 from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, read_write
+from omegaconf.errors import OmegaConfBaseException
 
 FAILED = 1  # some work failed (a crash, or jobs of a sweep)
 BAD_INPUT = 2  # nothing started: a value was wrong
@@ -62,12 +64,12 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], dict], bad_input: tupl
         return None
     try:
         return work(cfg)
-    except bad_input as error:
+    except (*bad_input, InstantiationException) as error:  # a value the work, or a class it builds, refuses
+        message = _one_line(error)
         if stop is None:
-            print(f"error: {error}", file=sys.stderr)
-            sys.exit(BAD_INPUT)
-        record(out, "failed", str(error))
-        print(f"error: {out.name}: {error}", file=sys.stderr)
+            _bad_input(message)
+        record(out, "failed", message)
+        print(f"error: {out.name}: {message}", file=sys.stderr)
     except Exception as error:
         if stop is None:
             raise
@@ -221,10 +223,50 @@ def command(main: Callable[[], Any], check: Callable[[list[str]], str | None] | 
     if check and (message := check(argv)):
         _bad_input(message)
     signal.signal(signal.SIGTERM, _interrupt)
+    os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises its errors here instead of printing them over several lines
     try:
         main()
     except KeyboardInterrupt:
         sys.exit(INTERRUPTED)
+    except (HydraException, OmegaConfBaseException) as error:  # composing: a value or key the config rejects
+        _bad_input(_one_line(error))
+
+
+def _one_line(error: BaseException) -> str:
+    """Hydra's and OmegaConf's several-line messages as one: the sentences, not the key dumps."""
+    parts = []
+    for e in (error, error.__cause__):
+        for line in str(e or "").splitlines():
+            line = line.strip().rstrip(".:")
+            if line and not line.startswith(("full_key", "object_type", "reference_type", "Set the environment")) \
+                    and not any(line in part for part in parts):
+                parts.append(line)
+    return ": ".join(parts)
+
+
+def unknown_choice(argv: list[str], conf: Path) -> str | None:
+    """One line naming the first ``group=option`` of a command line whose option does not exist in
+    the command's config dir ``conf``, and the valid ones; None if there is none (Hydra's own
+    message for it spans a dozen lines)."""
+    from nsp.brushes import BRUSHES  # the brush group is generated from the brushes, not YAML
+
+    try:
+        overrides = OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
+    except OverrideParseException:
+        return None
+    for override in overrides:
+        group = override.key_or_group
+        if group == "brush":
+            options = list(BRUSHES)
+        elif (conf / group).is_dir() and not group.startswith("hydra"):
+            options = sorted(p.stem for p in (conf / group).glob("*.yaml"))
+        else:
+            continue
+        values = override.sweep_string_iterator() if override.is_sweep_override() else [override.value()]
+        for value in values:
+            if value not in options:
+                return f"{group}={value}: no such {group}; expected one of: {', '.join(options)}"
+    return None
 
 
 def _bad_input(message: str) -> None:

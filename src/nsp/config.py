@@ -6,11 +6,14 @@ misspelt ``brush=`` fails at compose time listing the valid brushes.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Optional
 
 from hydra.core.config_store import ConfigStore
 
 from nsp.brushes import BRUSHES
+
+CONF = Path(__file__).resolve().parents[2] / "conf"  # each command's YAML: conf/paint, conf/train, conf/render
 
 
 @dataclass

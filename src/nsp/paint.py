@@ -18,16 +18,18 @@ from omegaconf import DictConfig, OmegaConf
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.brushes import get_brush
-from nsp.cli import INTERRUPTED, command, run_job, shielded
+from nsp.cli import INTERRUPTED, command, run_job, shielded, unknown_choice
+from nsp.config import CONF
 from nsp.engine import parse_color
+from nsp.engine.memory import check_canvas
 from nsp.io.export import write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
-from nsp.painter.images import load_image, resize
+from nsp.painter.images import load_image, long_side, resize
 from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, write_vector_files
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer, load_neural
-from nsp.painter.schema import unknown_choice  # also registers ``paint_schema``
+import nsp.painter.schema  # noqa: F401  (registers ``paint_schema``)
 from nsp.painter.stylize import MODES, stylize
 from nsp.style import StyleLoss, WeightsNotFound, load_style_image
 
@@ -35,6 +37,8 @@ POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_
             "renderer.block_size", "schedule.max_per_block")
 
 TEXT = ("image", "canvas", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
+
+MIN_WORK_SIZE = 16  # the coarsest canvas strokes are optimized on, in pixels
 
 
 class BadInput(ValueError):
@@ -50,6 +54,16 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     for key in POSITIVE:
         if OmegaConf.select(cfg, key) <= 0:
             raise BadInput(f"{key}={OmegaConf.select(cfg, key)}: expected a positive number")
+    if cfg.work_size < MIN_WORK_SIZE:
+        raise BadInput(f"work_size={cfg.work_size}: expected at least {MIN_WORK_SIZE} pixels")
+    if cfg.threads is not None and cfg.threads < 1:
+        raise BadInput(f"threads={cfg.threads}: expected a positive number of threads, or null for torch's default")
+    if cfg.optimizer.get("lr", 1) <= 0:
+        raise BadInput(f"optimizer.lr={cfg.optimizer.lr}: expected a positive learning rate")
+    loss = cfg.loss
+    if loss.l1 < 0 or loss.ot < 0 or loss.ot_grid < 2 or loss.ot_eps <= 0 or loss.ot_iters < 1:
+        raise BadInput(f"loss.l1={loss.l1}, loss.ot={loss.ot}, loss.ot_grid={loss.ot_grid}, loss.ot_eps={loss.ot_eps}, "
+                       f"loss.ot_iters={loss.ot_iters}: expected weights ≥ 0, a grid of ≥ 2, eps > 0, iters ≥ 1")
     s = cfg.schedule
     if s.steps_per_stroke < 0 or s.overlap < 0:
         raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.overlap={s.overlap}: expected ≥ 0")
@@ -61,17 +75,19 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
         parse_color(cfg.canvas)
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
         photo = load_image(cfg.image, max_side=max(cfg.work_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0))
+        check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
+        check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size", frames=cfg.animation_frames)
         if cfg.renderer.name == "analytic":
             renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
         elif cfg.renderer.checkpoint is None:
             raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
         else:
             renderer = load_neural(cfg.renderer.checkpoint, brush)
+        if cfg.style.mode not in MODES or cfg.style.steps < 0 or cfg.style.size <= 0:
+            raise BadInput(f"style.mode={cfg.style.mode}, style.steps={cfg.style.steps}, style.size="
+                           f"{cfg.style.size}: expected mode in {', '.join(MODES)}, steps ≥ 0, size > 0")
         style = None
         if cfg.style.image is not None:
-            if cfg.style.mode not in MODES or cfg.style.steps < 0 or cfg.style.size <= 0:
-                raise BadInput(f"style.mode={cfg.style.mode}, style.steps={cfg.style.steps}, style.size="
-                               f"{cfg.style.size}: expected mode in {', '.join(MODES)}, steps ≥ 0, size > 0")
             style = StyleLoss(load_style_image(cfg.style.image, cfg.style.size), cfg.style.backbone, cfg.style.weights,
                               cfg.seed, cfg.style.color_weight if cfg.style.mode == "color" else 0.0)
     except (ValueError, WeightsNotFound) as error:
@@ -105,9 +121,9 @@ def paint(cfg: DictConfig) -> dict:
     ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises.
     """
     start = time.perf_counter()
+    painter, photo, style = prepare(cfg)
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
-    painter, photo, style = prepare(cfg)
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
@@ -135,7 +151,7 @@ def paint(cfg: DictConfig) -> dict:
     return metrics
 
 
-@hydra.main(config_path="../../conf/paint", config_name="paint", version_base="1.3")
+@hydra.main(config_path=str(CONF / "paint"), config_name="paint", version_base="1.3")
 def main(cfg: DictConfig) -> float | None:
     if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits)
         metrics = run_job(cfg, instantiate(cfg.task))
@@ -158,7 +174,7 @@ def main(cfg: DictConfig) -> float | None:
 
 def cli() -> None:
     """The command line: ``python -m nsp.paint``."""
-    command(main, check=unknown_choice, text=TEXT)
+    command(main, check=lambda argv: unknown_choice(argv, CONF / "paint"), text=TEXT)
 
 
 if __name__ == "__main__":

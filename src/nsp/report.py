@@ -11,10 +11,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from nsp.cli import BAD_INPUT
 from nsp.reporting import latest_sweep, write_report
 
 
-def main(argv: list[str] | None = None) -> None:
+def cli(argv: list[str] | None = None) -> None:
+    """The command line: ``python -m nsp.report``."""
     parser = argparse.ArgumentParser(prog="python -m nsp.report", description=__doc__.splitlines()[0])
     parser.add_argument("dir", type=Path, nargs="?",
                         help="a multirun's sweep dir (e.g. multirun/renderer_comparison/<time>), a folder of runs or a run dir; default: the newest sweep under multirun/")
@@ -22,10 +24,11 @@ def main(argv: list[str] | None = None) -> None:
     try:
         written = write_report(args.dir or latest_sweep(Path("multirun")))
     except ValueError as error:
-        sys.exit(f"error: {error}")
+        print(f"error: {error}", file=sys.stderr)
+        sys.exit(BAD_INPUT)
     for path in written:
         print(path)
 
 
 if __name__ == "__main__":
-    main()
+    cli()

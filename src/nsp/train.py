@@ -11,14 +11,15 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
-from nsp.cli import INTERRUPTED, command, run_job
+from nsp.cli import INTERRUPTED, command, run_job, unknown_choice
+from nsp.config import CONF
 from nsp.training import train
 from nsp.training.schema import misspelt_key, register_configs
 
 register_configs()
 
 
-@hydra.main(config_path="../../conf/train", config_name="train", version_base="1.3")
+@hydra.main(config_path=str(CONF / "train"), config_name="train", version_base="1.3")
 def main(cfg: DictConfig) -> float | None:
     try:
         metrics = run_job(cfg, train)  # a bad value the schema cannot type (e.g. model.size=48): one line, no traceback
@@ -32,7 +33,8 @@ def main(cfg: DictConfig) -> float | None:
 
 def cli() -> None:
     """The command line: ``python -m nsp.train``."""
-    command(main, check=misspelt_key, text=("ckpt_path", "brush.texture", "hydra.run.dir", "hydra.sweep.dir"))
+    command(main, check=lambda argv: unknown_choice(argv, CONF / "train") or misspelt_key(argv),
+            text=("ckpt_path", "brush.texture", "hydra.run.dir", "hydra.sweep.dir"))
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ from nsp.brushes.base import Brush, Pixels
 from nsp.brushes.markerpen import MARKERPEN
 from nsp.brushes.oilpaint import OILPAINT
 from nsp.brushes.tape import TAPE
+from nsp.brushes.texture import load_texture
 from nsp.brushes.watercolor import WATERCOLOR
 
 BRUSHES: dict[str, Brush] = {b.name: b for b in (OILPAINT, WATERCOLOR, MARKERPEN, TAPE)}
@@ -20,6 +21,7 @@ def get_brush(name: str, texture: str | None = None) -> Brush:
     if texture is not None:
         if name != "oilpaint":
             raise ValueError(f"brush.texture applies to oilpaint only, not '{name}'")
+        load_texture(texture)  # a bad file fails here, before any work
         brush = dataclasses.replace(brush, texture_path=str(texture), _cache={})
     return brush
 

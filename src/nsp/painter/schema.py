@@ -3,20 +3,12 @@ key or a value of the wrong type fails at compose time, naming the key."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Optional
 
-from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
 from hydra.core.config_store import ConfigStore
-from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.errors import OverrideParseException
 from omegaconf import MISSING
 
-import nsp.config  # noqa: F401  (registers the ``brush`` group)
-from nsp.brushes import BRUSHES
-from nsp.config import BrushConfig
-
-CONF = Path(__file__).resolve().parents[3] / "conf" / "paint"
+from nsp.config import BrushConfig  # also registers the ``brush`` group
 
 
 @dataclass
@@ -91,25 +83,3 @@ class PaintConfig:
 
 
 ConfigStore.instance().store(name="paint_schema", node=PaintConfig)
-
-
-def unknown_choice(argv: list[str]) -> Optional[str]:
-    """One line naming the first ``group=option`` of a command line whose option does not exist, and
-    the valid ones; None if there is none (Hydra's own message for it spans a dozen lines)."""
-    try:
-        overrides = OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
-    except OverrideParseException:
-        return None
-    for override in overrides:
-        group = override.key_or_group
-        if group == "brush":
-            options = list(BRUSHES)
-        elif (CONF / group).is_dir() and not group.startswith("hydra"):
-            options = sorted(p.stem for p in (CONF / group).glob("*.yaml"))
-        else:
-            continue
-        values = override.sweep_string_iterator() if override.is_sweep_override() else [override.value()]
-        for value in values:
-            if value not in options:
-                return f"error: {group}={value}: no such {group}; expected one of: {', '.join(options)}"
-    return None

@@ -13,6 +13,7 @@ from hydra._internal.utils import get_args_parser  # Hydra's own command-line pa
 from hydra.core.config_store import ConfigStore
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import OverrideParseException
+import torch
 from omegaconf import MISSING, OmegaConf
 
 import nsp.config  # noqa: F401  (registers the ``brush`` group)
@@ -143,6 +144,9 @@ def misspelt_key(argv: list[str]) -> Optional[str]:
     return None
 
 
+ACCELERATORS = ("cpu", "gpu", "cuda", "mps", "auto")
+
+
 def check(cfg: Any) -> None:
     """Raise ``ValueError`` (one line naming the value and what is valid) for a composed training
     config that types cannot catch: sizes and counts that would train nothing, or train wrongly."""
@@ -161,5 +165,12 @@ def check(cfg: Any) -> None:
                          f"the renderer and the training strokes follow it")
     if model.optimizer.get("lr", 1) <= 0:
         raise ValueError(f"model.optimizer.lr={model.optimizer.lr}: expected a positive learning rate")
+    accelerator = cfg.trainer.accelerator
+    if accelerator not in ACCELERATORS:
+        raise ValueError(f"trainer.accelerator={accelerator}: expected one of {', '.join(ACCELERATORS)}")
+    if accelerator in ("gpu", "cuda") and not torch.cuda.is_available():
+        raise ValueError(f"trainer.accelerator={accelerator}: this machine has no CUDA GPU; use trainer.accelerator=cpu")
+    if cfg.threads is not None and cfg.threads < 1:
+        raise ValueError(f"threads={cfg.threads}: expected a positive number of threads, or null for torch's default")
     if cfg.trainer.max_steps < -1 or cfg.trainer.max_steps == 0:
         raise ValueError(f"trainer.max_steps={cfg.trainer.max_steps}: expected a positive number of steps, or -1 (no limit)")

@@ -1,0 +1,75 @@
+"""Memory a render needs, checked against what the machine has before any pixel is allocated, so a
+too-large ``size`` fails at once with a size that fits instead of swapping for minutes and crashing.
+
+A render's peak is the canvas itself (a few float copies of it) plus the stroke tiles of the
+largest chunk :func:`~nsp.engine.canvas.paint_canvas` composites at once; both grow with the
+pixel count, the second also with how much of the canvas a chunk's strokes cover.
+"""
+from __future__ import annotations
+
+import math
+import os
+
+from torch import Tensor
+
+from nsp.brushes.base import Brush
+from nsp.engine.canvas import paint_canvas
+
+# Peak RSS over the pre-render baseline (ru_maxrss) of write_painting on the CPU, 1000–4000 px:
+CANVAS_BYTES = 37  # per canvas pixel, no strokes: PNG 36–38 B/px, GIF 25–26 B/px
+TILE_BYTES = 25  # per pixel of the largest chunk's stroke boxes: 19–24 B, 500-stroke paintings of each brush, PNG
+FRAME_BYTES = 2.5  # per pixel and GIF frame kept until the file is written: 51 frames add 118 B/px
+TYPICAL_COVER = 25.0  # stroke_cover of those paintings (progressive schedule, the painter's default): 13–25
+
+
+class MemoryLimit(ValueError):
+    """A render larger than the memory available; the message names the largest size that fits."""
+
+
+def available_bytes() -> int:
+    """Memory the kernel can hand out now: Linux's MemAvailable, else all physical memory."""
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024  # reported in kB
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def stroke_cover(brush: Brush, strokes: Tensor, height: int, width: int) -> float:
+    """How many canvases the bounding boxes of the largest chunk of strokes (N, d) that
+    :func:`paint_canvas` composites at once cover, on a ``height``×``width`` canvas (0 for N = 0)."""
+    box = brush.extent(strokes.detach(), width, height)  # (N, 4) px: x_min, y_min, x_max, y_max
+    w = (box[:, 2].clamp(0, width) - box[:, 0].clamp(0, width)).clamp(min=0)
+    h = (box[:, 3].clamp(0, height) - box[:, 1].clamp(0, height)).clamp(min=0)
+    chunks = (w * h).split(paint_canvas.__kwdefaults__["chunk"])
+    return max((float(area.sum()) for area in chunks), default=0.0) / (height * width)
+
+
+def check_canvas(height: int, width: int, key: str, cover: float = TYPICAL_COVER, frames: int = 0) -> None:
+    """Raise :class:`MemoryLimit` if a ``height``×``width`` render will not fit in memory.
+
+    Args:
+        height, width: the render in pixels.
+        key: the option that set its long side (``size``, ``render_size``), named in the message.
+        cover: canvases covered by the largest chunk of strokes (:func:`stroke_cover`); the default
+            is a typical painting's, for checks made before the strokes exist.
+        frames: GIF frames the render holds at once (0 for a still image).
+    """
+    need = (CANVAS_BYTES + TILE_BYTES * cover + FRAME_BYTES * frames) * height * width
+    free = available_bytes()
+    if need > free:
+        long_side = max(height, width)
+        fits = _two_digits(long_side * math.sqrt(free / need))
+        raise MemoryLimit(
+            f"{key}={long_side}: a {width}×{height} render needs about {need / 1e9:.1f} GB, "
+            f"{free / 1e9:.1f} GB is available; the largest that fits is about {key}={fits}"
+        )
+
+
+def _two_digits(n: float) -> int:
+    """``n`` rounded down to two significant digits: 15396.2 -> 15000."""
+    step = 10 ** max(0, len(str(int(n))) - 2)
+    return int(n) // step * step

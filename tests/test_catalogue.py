@@ -1,0 +1,189 @@
+"""The bad-input catalogue: every case runs a real entry point in-process (its ``cli()``: the command
+line checks, Hydra, the work) and must end with one line ``error: …`` naming the bad value, exit
+status 2, no traceback, and no file of a run written (nothing of a previous run lost).
+
+``docs/robustness.md`` gives the counts; ``python -m pytest tests/test_catalogue.py -q`` recounts them.
+"""
+from __future__ import annotations
+
+import importlib
+import signal
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from PIL import Image
+
+RESULTS = ("final.png", "strokes.json", "painting.svg", "animation.gif", "metrics.json", "checkpoints", "out.png")
+
+PAINT = [  # (case id, overrides, words the one line must contain)
+    ("image missing", ["image=missing.jpg"], "image=missing.jpg: no such file"),
+    ("image not an image", ["image={notes}"], "is not an image"),
+    ("image a directory", ["image={tmp}"], "no such file"),
+    ("strokes zero", ["strokes=0"], "strokes=0: expected a positive number"),
+    ("strokes negative", ["strokes=-5"], "strokes=-5"),
+    ("strokes not a number", ["strokes=abc"], "strokes=abc"),
+    ("strokes fractional", ["strokes=1.5"], "strokes=1.5"),
+    ("render_size zero", ["render_size=0"], "render_size=0"),
+    ("render_size beyond memory", ["render_size=200000"], "render_size=200000"),
+    ("work_size zero", ["work_size=0"], "work_size=0"),
+    ("work_size one pixel", ["work_size=1"], "work_size=1"),
+    ("animation_size zero", ["animation_size=0"], "animation_size=0"),
+    ("animation_frames zero", ["animation_frames=0"], "animation_frames=0"),
+    ("canvas not a colour", ["canvas=blue-ish"], "canvas=blue-ish is not a colour"),
+    ("canvas short hex", ["canvas=#12345"], "#12345"),
+    ("brush unknown", ["brush=oil"], "brush=oil: no such brush"),
+    ("brush texture missing", ["brush.texture=/nonexistent/paper.png"], "/nonexistent/paper.png"),
+    ("brush texture not an image", ["brush.texture={notes}"], "notes.txt"),
+    ("neural without checkpoint", ["renderer=neural"], "renderer.checkpoint=PATH"),
+    ("neural checkpoint missing", ["renderer=neural", "renderer.checkpoint=/nonexistent.ckpt"], "/nonexistent.ckpt"),
+    ("neural checkpoint not one", ["renderer=neural", "renderer.checkpoint={notes}"], "is not an nsp renderer checkpoint"),
+    ("renderer unknown", ["renderer=magic"], "renderer=magic"),
+    ("softness zero", ["renderer.softness=0"], "renderer.softness=0"),
+    ("softness not a number", ["renderer.softness=x"], "renderer.softness=x"),
+    ("block_size zero", ["renderer.block_size=0"], "renderer.block_size=0"),
+    ("schedule unknown", ["schedule=nope"], "schedule=nope"),
+    ("grids with zero", ["schedule.grids=[1,0]"], "schedule.grids=[1, 0]"),
+    ("grids empty", ["schedule.grids=[]"], "schedule.grids=[]"),
+    ("init_size reversed", ["schedule.init_size=[0.5,0.1]"], "schedule.init_size=[0.5, 0.1]"),
+    ("init_size one number", ["schedule.init_size=[0.5]"], "schedule.init_size=[0.5]"),
+    ("steps_per_stroke negative", ["schedule.steps_per_stroke=-1"], "schedule.steps_per_stroke=-1"),
+    ("overlap negative", ["schedule.overlap=-1"], "schedule.overlap=-1"),
+    ("max_per_block zero", ["schedule.max_per_block=0"], "schedule.max_per_block=0"),
+    ("loss unknown", ["loss=nope"], "loss=nope"),
+    ("loss weight negative", ["loss.ot=-1"], "loss.ot=-1"),
+    ("ot grid zero", ["loss=l1_ot", "loss.ot_grid=0"], "loss.ot_grid=0"),
+    ("optimizer unknown", ["optimizer=nope"], "optimizer=nope"),
+    ("learning rate negative", ["optimizer.lr=-1"], "optimizer.lr=-1"),
+    ("style image missing", ["style.image=/nonexistent/style.jpg"], "/nonexistent/style.jpg"),
+    ("style mode unknown", ["style.mode=nope"], "style.mode=nope"),
+    ("style steps negative", ["style.steps=-1"], "style.steps=-1"),
+    ("style size zero", ["style.size=0"], "style.size=0"),
+    ("seed not a number", ["seed=abc"], "seed=abc"),
+    ("threads negative", ["threads=-1"], "threads=-1"),
+    ("key misspelt", ["strokse=3"], "strokse"),
+    ("experiment unknown", ["experiment=nope"], "experiment=nope"),
+    ("unreadable override", ["strokes=[1,"], "strokes=[1,"),
+    ("run dir holds a run", ["hydra.run.dir={previous}"], "already holds a run"),
+]
+
+TRAIN = [
+    ("renderer unknown", ["renderer=magic"], "renderer=magic"),
+    ("brush unknown", ["brush=oil"], "brush=oil"),
+    ("size not offered", ["model.size=48"], "48"),
+    ("size not a number", ["model.size=abc"], "model.size=abc"),
+    ("renderer and data sizes differ", ["renderer.size=64"], "renderer.size=64 differs from model.size=32"),
+    ("width zero", ["model.width=0"], "model.width=0"),
+    ("batch_size zero", ["data.batch_size=0"], "data.batch_size=0"),
+    ("epoch_size zero", ["data.epoch_size=0"], "data.epoch_size=0"),
+    ("epoch under a batch", ["data.epoch_size=10", "data.batch_size=64"], "data.epoch_size=10"),
+    ("val_size zero", ["data.val_size=0"], "data.val_size=0"),
+    ("test_size zero", ["data.test_size=0"], "data.test_size=0"),
+    ("num_workers negative", ["data.num_workers=-1"], "data.num_workers=-1"),
+    ("learning rate zero", ["model.optimizer.lr=0"], "model.optimizer.lr=0"),
+    ("max_steps zero", ["trainer.max_steps=0"], "trainer.max_steps=0"),
+    ("max_steps not a number", ["trainer.max_steps=many"], "trainer.max_steps=many"),
+    ("key misspelt", ["trainer.max_epoch=3"], "Did you mean 'trainer.max_epochs'"),
+    ("schedule unknown", ["schedule=nope"], "schedule=nope"),
+    ("preset unknown", ["preset=huge"], "preset=huge"),
+    ("experiment unknown", ["experiment=nope"], "experiment=nope"),
+    ("texture missing", ["brush=oilpaint", "brush.texture=/nonexistent/paper.png"], "/nonexistent/paper.png"),
+    ("checkpoint missing", ["ckpt_path=/nonexistent/last.ckpt"], "/nonexistent/last.ckpt"),
+    ("checkpoint not one", ["ckpt_path={notes}"], "is not an nsp renderer checkpoint"),
+    ("checkpoint truncated", ["ckpt_path={cut}"], "is not an nsp renderer checkpoint"),
+    ("checkpoint random bytes", ["ckpt_path={noise}"], "is not an nsp renderer checkpoint"),
+    ("checkpoint of another brush", ["brush=watercolor", "ckpt_path={ckpt}"], "brush=tape"),
+    ("checkpoint of another renderer", ["renderer=dual", "ckpt_path={ckpt}"], "renderer=dcgan"),
+    ("accelerator absent", ["trainer.accelerator=tpu"], "trainer.accelerator=tpu"),
+    ("run dir holds a run", ["hydra.run.dir={previous}"], "already holds a run"),
+]
+PAINT_BASE = ["strokes=4", "work_size=32", "render_size=64", "animation_size=32", "progress=false"]
+TRAIN_BASE = ["renderer=dcgan", "brush=tape", "model.size=32", "model.width=0.125", "data.batch_size=8",
+              "data.epoch_size=16", "data.val_size=8", "data.test_size=8", "data.num_workers=0", "trainer.max_steps=1",
+              "trainer.enable_progress_bar=false"]
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> dict[str, str]:
+    """The files the cases point at: a text file, checkpoints good and broken, a finished run."""
+    tmp = tmp_path_factory.mktemp("catalogue")
+    (tmp / "notes.txt").write_text("not a picture, not a checkpoint")
+    previous = tmp / "previous"
+    previous.mkdir()
+    (previous / "final.png").write_bytes(b"a painting")
+    from test_training import compose_train  # a real checkpoint of dcgan on tape, 32 px
+
+    from nsp.training import train
+
+    train(compose_train(tmp / "trained", "renderer=dcgan", "brush=tape", "trainer.max_steps=1", "data.num_workers=0"))
+    ckpt = tmp / "trained" / "checkpoints" / "last.ckpt"
+    (tmp / "cut.ckpt").write_bytes(ckpt.read_bytes()[:2000])
+    (tmp / "noise.ckpt").write_bytes(np.random.default_rng(0).bytes(4000))
+    return {"notes": str(tmp / "notes.txt"), "tmp": str(tmp), "previous": str(previous), "ckpt": str(ckpt),
+            "cut": str(tmp / "cut.ckpt"), "noise": str(tmp / "noise.ckpt")}
+
+
+def run_cli(module: str, argv: list[str], capsys, monkeypatch) -> tuple[int, str]:
+    """``python -m module *argv`` in this process: its exit status and what it wrote to stderr."""
+    monkeypatch.setattr(sys, "argv", [module, *argv])
+    monkeypatch.setenv("HYDRA_FULL_ERROR", "0")
+    handlers = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    threads = torch.get_num_threads()
+    capsys.readouterr()
+    try:
+        importlib.import_module(module).cli()
+        code = 0
+    except SystemExit as exit:
+        code = exit.code if isinstance(exit.code, int) else 1
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+        torch.set_num_threads(threads)
+    return code, capsys.readouterr().err
+
+
+def check(module: str, argv: list[str], words: str, run_dir: Path, capsys, monkeypatch) -> None:
+    before = {p: p.stat().st_mtime_ns for p in run_dir.rglob("*")} if run_dir.exists() else {}
+    code, err = run_cli(module, argv, capsys, monkeypatch)
+    lines = err.strip().splitlines()
+    assert "Traceback" not in err, err
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("error: "), err
+    assert words in lines[0], lines[0]
+    written = {p.name for p in run_dir.iterdir()} & set(RESULTS) if run_dir.exists() else set()
+    assert written <= {p.name for p in before}, f"wrote {written}"
+    assert all(p.stat().st_mtime_ns == t for p, t in before.items() if p.exists() and p.name in RESULTS)
+
+
+@pytest.mark.parametrize(("case", "overrides", "words"), PAINT, ids=[case for case, _, _ in PAINT])
+def test_paint(case, overrides, words, files, tmp_path, capsys, monkeypatch):
+    argv = [o.format(**files) for o in overrides]
+    run_dir = Path(files["previous"]) if "{previous}" in " ".join(overrides) else tmp_path / "run"
+    if not any(a.startswith("hydra.run.dir") for a in argv):
+        argv.append(f"hydra.run.dir={run_dir}")
+    small = [d for d in PAINT_BASE if d.split("=")[0] not in {a.split("=")[0] for a in argv}]  # fast if a check misses
+    check("nsp.paint", [*small, *argv], words, run_dir, capsys, monkeypatch)
+
+
+@pytest.mark.parametrize(("case", "overrides", "words"), TRAIN, ids=[case for case, _, _ in TRAIN])
+def test_train(case, overrides, words, files, tmp_path, capsys, monkeypatch):
+    argv = [o.format(**files) for o in overrides]
+    run_dir = Path(files["previous"]) if "{previous}" in " ".join(overrides) else tmp_path / "run"
+    if not any(a.startswith("hydra.run.dir") for a in argv):
+        argv.append(f"hydra.run.dir={run_dir}")
+    check("nsp.train", [*TRAIN_BASE, *argv], words, run_dir, capsys, monkeypatch)
+
+
+REPORT = [
+    ("dir missing", ["{tmp}/nowhere"], "nowhere"),
+    ("dir is a file", ["{notes}"], "notes.txt"),
+    ("dir holds no runs", ["{empty}"], "empty"),
+]
+
+
+@pytest.mark.parametrize(("case", "argv", "words"), REPORT, ids=[case for case, _, _ in REPORT])
+def test_report(case, argv, words, files, tmp_path, capsys, monkeypatch):
+    (tmp_path / "empty").mkdir()
+    argv = [a.format(**files, empty=tmp_path / "empty") for a in argv]
+    check("nsp.report", argv, words, tmp_path / "empty", capsys, monkeypatch)
