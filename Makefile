@@ -23,6 +23,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: setup
+	rm -rf outputs/demo  # a run never writes into a dir holding another: the demo replaces its own
 	$(BIN)/python -m nsp.paint hydra.run.dir=outputs/demo
 	@echo "Results in outputs/demo: final.png painting.svg animation.gif strokes.json metrics.json"
 

@@ -7,6 +7,7 @@ status 2, no traceback, and no file of a run written (nothing of a previous run 
 from __future__ import annotations
 
 import importlib
+import json
 import signal
 import sys
 from pathlib import Path
@@ -14,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from PIL import Image
+
+from nsp.io.strokes import StrokeFile, save_strokes
 
 RESULTS = ("final.png", "strokes.json", "painting.svg", "animation.gif", "metrics.json", "checkpoints", "out.png")
 
@@ -121,8 +123,19 @@ def files(tmp_path_factory) -> dict[str, str]:
     ckpt = tmp / "trained" / "checkpoints" / "last.ckpt"
     (tmp / "cut.ckpt").write_bytes(ckpt.read_bytes()[:2000])
     (tmp / "noise.ckpt").write_bytes(np.random.default_rng(0).bytes(4000))
+    painting = tmp / "painting.json"
+    save_strokes(painting, StrokeFile("tape", torch.rand(3, 8, generator=torch.Generator().manual_seed(0)), 64, 48))
+    data = json.loads(painting.read_text())
+    data["strokes"][1]["x"] = float("nan")
+    (tmp / "nan.json").write_text(json.dumps(data))
+    (tmp / "notes.json").write_text("not JSON {")
+    (tmp / "listed.json").write_text("[1, 2, 3]")
+    np.savez(tmp / "ref.npz", x_ctt=np.full((1, 2, 8), np.nan, np.float32), x_color=np.zeros((1, 2, 6), np.float32),
+             x_alpha=np.ones((1, 2, 1), np.float32))
     return {"notes": str(tmp / "notes.txt"), "tmp": str(tmp), "previous": str(previous), "ckpt": str(ckpt),
-            "cut": str(tmp / "cut.ckpt"), "noise": str(tmp / "noise.ckpt")}
+            "cut": str(tmp / "cut.ckpt"), "noise": str(tmp / "noise.ckpt"), "painting": str(painting),
+            "notes_json": str(tmp / "notes.json"), "listed": str(tmp / "listed.json"), "nan": str(tmp / "nan.json"),
+            "npz": str(tmp / "ref.npz")}
 
 
 def run_cli(module: str, argv: list[str], capsys, monkeypatch) -> tuple[int, str]:
@@ -173,6 +186,31 @@ def test_train(case, overrides, words, files, tmp_path, capsys, monkeypatch):
     if not any(a.startswith("hydra.run.dir") for a in argv):
         argv.append(f"hydra.run.dir={run_dir}")
     check("nsp.train", [*TRAIN_BASE, *argv], words, run_dir, capsys, monkeypatch)
+
+
+RENDER = [
+    ("strokes missing", ["strokes=/nonexistent/strokes.json", "out={tmp}/r/out.png"], "/nonexistent/strokes.json"),
+    ("strokes not given", ["out={tmp}/r/out.png"], "strokes= is required"),
+    ("out not given", ["strokes={painting}"], "out= is required"),
+    ("strokes not JSON", ["strokes={notes_json}", "out={tmp}/r/out.png"], "notes.json"),
+    ("strokes a list", ["strokes={listed}", "out={tmp}/r/out.png"], "listed.json"),
+    ("strokes NaN", ["strokes={nan}", "out={tmp}/r/out.png"], "nan.json"),
+    ("npz without brush", ["strokes={npz}", "out={tmp}/r/out.png"], "brush="),
+    ("npz NaN", ["strokes={npz}", "brush=watercolor", "out={tmp}/r/out.png"], "NaN"),
+    ("out a folder", ["strokes={painting}", "out={tmp}"], "is a folder"),
+    ("out extension unknown", ["strokes={painting}", "out={tmp}/r/out.bmp"], "out.bmp"),
+    ("out folder impossible", ["strokes={painting}", "out={notes}/out.png"], "cannot make its folder"),
+    ("size zero", ["strokes={painting}", "size=0", "out={tmp}/r/out.png"], "size=0"),
+    ("size not a number", ["strokes={painting}", "size=abc", "out={tmp}/r/out.png"], "size=abc"),
+    ("size beyond memory", ["strokes={painting}", "size=10000000", "out={tmp}/r/out.png"], "size=10000000"),
+    ("canvas not a colour", ["strokes={painting}", "canvas=blue-ish", "out={tmp}/r/out.png"], "blue-ish"),
+    ("brush unknown", ["strokes={npz}", "brush=oil", "out={tmp}/r/out.png"], "brush=oil"),
+]
+
+
+@pytest.mark.parametrize(("case", "argv", "words"), RENDER, ids=[case for case, _, _ in RENDER])
+def test_render(case, argv, words, files, capsys, monkeypatch):
+    check("nsp.render", [a.format(**files) for a in argv], words, Path(files["tmp"]) / "r", capsys, monkeypatch)
 
 
 REPORT = [

@@ -1,5 +1,6 @@
 """`python -m nsp.render`: PNG from the engine, SVG a browser-grade renderer draws alike, GIF in order."""
 import io
+import json
 import subprocess
 import sys
 
@@ -9,8 +10,13 @@ import pytest
 import torch
 from PIL import Image
 
+from omegaconf import OmegaConf
+
 from nsp.brushes import BRUSHES
-from nsp.io.strokes import StrokeFile, save_strokes
+from nsp.engine import memory
+from nsp.io.export import atomic_path
+from nsp.io.strokes import StrokeFile, load_strokes, save_strokes
+from nsp.render import RenderConfig, render
 
 
 def run(*args):
@@ -42,7 +48,6 @@ def psnr(a, b):
 def test_svg_renders_like_the_png(name, painting, tmp_path):
     resvg = pytest.importorskip("resvg_py")
     from nsp.io.export import write_painting
-    from nsp.io.strokes import load_strokes
 
     p = load_strokes(painting(name))
     write_painting(tmp_path / "a.png", p.brush, p.strokes, 120, 80, p.background)
@@ -80,7 +85,9 @@ def test_reference_npz_renders_with_brush(tmp_path):
         (["out=x.bmp"], "unknown extension '.bmp', expected one of .png, .svg, .gif"),
         (["strokes=missing.json"], "no such file"),
         (["canvas=blue"], "canvas=blue is not a colour"),
-        (["brush=oil"], "Available options in 'brush'"),
+        (["brush=oil"], "brush=oil: no such brush; expected one of: oilpaint"),
+        (["size=0"], "size=0: expected a positive number"),
+        (["size=-5"], "size=-5: expected a positive number"),
         (["size=abc"], "could not be converted to Integer"),
     ],
 )
@@ -89,7 +96,103 @@ def test_bad_input_is_one_clear_line(args, words, painting, tmp_path):
     for arg in args:
         key, value = arg.split("=", 1)
         defaults[key] = value
-    result = run(*[f"{k}={v}" for k, v in defaults.items()])
-    assert result.returncode != 0
+    refused(run(*[f"{k}={v}" for k, v in defaults.items()]), words, tmp_path)
+
+
+def refused(result, words, folder):
+    """The command ended as a bad input should: exit 2, one ``error:`` line naming the value, and
+    nothing written in ``folder`` (no output file, no temporary one)."""
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.startswith("error: ") and result.stderr.count("\n") == 1, result.stderr
     assert words in result.stderr
-    assert "Traceback" not in result.stderr
+    assert not [p.name for p in folder.rglob("*") if p.is_file() and p.suffix in (".png", ".svg", ".gif")]
+
+
+def test_non_finite_reference_strokes_are_refused(tmp_path):
+    ctt = np.array([[[0.5, 0.5, 0.5, 0.25, 0.0], [np.nan, 0.5, 0.5, 0.25, 0.0], [0.5, np.inf, 0.5, 0.25, 0.0]]])
+    np.savez(tmp_path / "r.npz", x_ctt=ctt, x_color=np.ones((1, 3, 3)), x_alpha=np.ones((1, 3, 1)))
+    result = run(f"strokes={tmp_path / 'r.npz'}", "brush=tape", "size=64", f"out={tmp_path / 'r.png'}")
+    refused(result, f"strokes={tmp_path / 'r.npz'}: 2 of 3 strokes hold NaN or infinite values", tmp_path)
+
+
+def test_non_finite_json_strokes_are_refused(painting, tmp_path):
+    path = painting("tape")
+    data = json.loads(path.read_text())
+    data["strokes"][3]["x"] = float("nan")  # json writes NaN, and reads it back
+    path.write_text(json.dumps(data))
+    result = run(f"strokes={path}", "size=64", f"out={tmp_path / 'o.png'}")
+    refused(result, "1 of 12 strokes have a parameter that is not a finite number in [0, 1], got nan (x of stroke 3)",
+            tmp_path)
+
+
+@pytest.mark.parametrize("extension", [".png", ".svg", ".gif"])
+def test_an_empty_painting_renders_its_canvas(extension, tmp_path):
+    # What a painting interrupted before its first stroke leaves.
+    save_strokes(tmp_path / "e.json", StrokeFile("watercolor", torch.zeros(0, 15), 120, 80, "#203040"))
+    result = run(f"strokes={tmp_path / 'e.json'}", "size=90", f"out={tmp_path / ('e' + extension)}")
+    assert result.returncode == 0, result.stderr
+    if extension == ".svg":
+        resvg = pytest.importorskip("resvg_py")
+        image = Image.open(io.BytesIO(bytes(resvg.svg_to_bytes(svg_path=str(tmp_path / "e.svg")))))
+    else:
+        image = Image.open(tmp_path / ("e" + extension))
+    assert np.all(np.asarray(image.convert("RGB")) == np.full((60, 90, 3), [0x20, 0x30, 0x40]))
+
+
+@pytest.mark.parametrize(
+    "content, words",
+    [
+        ("[1, 2]", " is not an nsp stroke file (expected a JSON object with format 'nsp-strokes')"),
+        ('{"format": "nsp-strokes", "version": 1, "brush": "tape", "strokes": []}',
+         ' is malformed: expected "canvas": {"width": pixels, "height": pixels, "background": colour}'),
+        ('{"format": "nsp-strokes", "version": 1, "brush": "tape", "strokes": {},'
+         ' "canvas": {"width": 10, "height": 10, "background": "white"}}',
+         ' is malformed: expected "strokes": a list of objects with x, y, w, h'),
+        ('{"format": "nsp-strokes", "version": 1, "brush": 3}', ": unknown brush 3, expected one of: oilpaint"),
+    ],
+)
+def test_a_malformed_stroke_file_is_one_line(content, words, tmp_path):
+    (tmp_path / "bad.json").write_text(content)
+    refused(run(f"strokes={tmp_path / 'bad.json'}", f"out={tmp_path / 'o.png'}"), f"bad.json{words}", tmp_path)
+
+
+def test_out_must_be_a_file_in_a_folder_that_can_be_made(painting, tmp_path):
+    path = painting("tape")
+    (tmp_path / "taken.png").mkdir()
+    result = run(f"strokes={path}", f"out={tmp_path / 'taken.png'}")
+    refused(result, f"out={tmp_path / 'taken.png'} is a folder; expected a file path", tmp_path)
+    (tmp_path / "file").write_text("")
+    result = run(f"strokes={path}", f"out={tmp_path / 'file' / 'o.png'}")
+    refused(result, f"out={tmp_path / 'file' / 'o.png'}: cannot make its folder {tmp_path / 'file'}", tmp_path)
+
+
+def test_a_render_too_large_for_memory_is_refused_before_it_starts(painting, tmp_path):
+    result = run(f"strokes={painting('tape')}", "size=10000000", f"out={tmp_path / 'huge.png'}")
+    refused(result, "size=10000000: a 10000000×6666667 render needs about", tmp_path)
+
+
+def test_the_memory_message_names_the_size_that_fits(painting, tmp_path, monkeypatch):
+    monkeypatch.setattr(memory, "available_bytes", lambda: 2 * 10**9)
+    cfg = OmegaConf.merge(OmegaConf.structured(RenderConfig), {"strokes": str(painting("tape")), "size": 20000,
+                                                               "out": str(tmp_path / "o.png")})
+    with pytest.raises(memory.MemoryLimit) as refusal:
+        render(cfg)  # at once: nothing is allocated
+    message = str(refusal.value)
+    assert message.startswith("size=20000: a 20000×13333 render needs about ")
+    assert "2.0 GB is available; the largest that fits is about size=" in message
+    fits = int(message.rsplit("size=", 1)[1])
+    p = load_strokes(cfg.strokes)
+    height, width = p.size(fits)
+    memory.check_canvas(height, width, "size", memory.stroke_cover(BRUSHES["tape"], p.strokes, height, width))
+    assert not list(tmp_path.glob("*.png"))
+
+
+def test_an_interrupted_write_leaves_the_old_file_and_no_other(tmp_path):
+    (tmp_path / "o.png").write_text("old")
+    with pytest.raises(KeyboardInterrupt), atomic_path(tmp_path / "o.png") as temporary:
+        temporary.write_text("half")
+        raise KeyboardInterrupt
+    assert [p.name for p in tmp_path.iterdir()] == ["o.png"] and (tmp_path / "o.png").read_text() == "old"
+    with atomic_path(tmp_path / "o.png") as temporary:
+        temporary.write_text("new")
+    assert [p.name for p in tmp_path.iterdir()] == ["o.png"] and (tmp_path / "o.png").read_text() == "new"

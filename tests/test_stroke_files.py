@@ -22,6 +22,13 @@ def test_json_round_trip_is_exact(name, tmp_path, generator):
     assert list(data["strokes"][0]) == list(BRUSHES[name].params)  # each stroke's named parameters
 
 
+def test_an_empty_painting_round_trips(tmp_path):
+    save_strokes(tmp_path / "e.json", StrokeFile("oilpaint", torch.zeros(0, 11)))
+    assert load_strokes(tmp_path / "e.json").strokes.shape == (0, 11)
+    path = npz(tmp_path / "e.npz", np.zeros((0, 5)), np.zeros((0, 6)), np.zeros((0, 1)))
+    assert load_strokes(path, brush="oilpaint").strokes.shape == (0, 11)
+
+
 def test_size_keeps_the_aspect_ratio():
     assert StrokeFile("tape", torch.zeros(0, 8), 640, 480).size(1024) == (768, 1024)
 
@@ -70,6 +77,9 @@ def test_reference_oil_sizes(tmp_path):
     assert x[2] == pytest.approx((1 + 0.5 * 100) / 100) and x[3] == pytest.approx((1 + 0.2 * 100) / 100)
 
 
+CANVAS = '{"format": "nsp-strokes", "version": 1, "brush": "tape", "canvas": {%s}, "strokes": %s}'
+
+
 @pytest.mark.parametrize(
     "content, match",
     [
@@ -78,11 +88,19 @@ def test_reference_oil_sizes(tmp_path):
         ('{"format": "nsp-strokes", "version": 9}', "version 9"),
         ('{"format": "nsp-strokes", "version": 1, "brush": "oil"}', "unknown brush 'oil'"),
         ('{"format": "nsp-strokes", "version": 1, "brush": "tape", "strokes": [{"x": 1}]}', "malformed"),
+        ('"nsp-strokes"', "not an nsp stroke file"),
+        (CANVAS % ('"width": 0, "height": 9, "background": "white"', "[]"), r'expected "canvas": \{"width": pixels'),
+        (CANVAS % ('"width": 9, "height": 9, "background": "blue"', "[]"), "its background 'blue' is not a colour"),
+        (CANVAS % ('"width": 9, "height": 9, "background": "white"', "[[0.5]]"), '"strokes": a list of objects'),
+        (CANVAS % ('"width": 9, "height": 9, "background": "white"', '[{"x": "0.5"}, {}]'),
+         "2 of 2 strokes lack a number for one of x, y, w, h"),
+        (CANVAS % ('"width": 9, "height": 9, "background": "white"', json.dumps([dict.fromkeys("xywh", 0) | {
+            "theta": 0, "R": 0, "G": 0, "B": 10**400}])), "far outside"),
     ],
 )
 def test_malformed_files_name_the_problem(tmp_path, content, match):
     (tmp_path / "bad.json").write_text(content)
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(StrokeFileError, match=match):
         load_strokes(tmp_path / "bad.json")
 
 
@@ -90,7 +108,11 @@ def test_out_of_range_parameters_are_refused(tmp_path, generator):
     painting = StrokeFile("tape", BRUSHES["tape"].sample(2, generator))
     painting.strokes[1, 3] = 1.25
     save_strokes(tmp_path / "p.json", painting)
-    with pytest.raises(ValueError, match=r"\[0, 1\], got 1.25"):
+    with pytest.raises(StrokeFileError, match=r"p.json: 1 of 2 strokes .* in \[0, 1\], got 1.25 \(h of stroke 1\)"):
+        load_strokes(tmp_path / "p.json")
+    painting.strokes[1, 3], painting.strokes[0, 0] = float("inf"), float("nan")
+    save_strokes(tmp_path / "p.json", painting)
+    with pytest.raises(StrokeFileError, match=r"2 of 2 strokes .* got nan \(x of stroke 0\)"):
         load_strokes(tmp_path / "p.json")
 
 
@@ -100,3 +122,13 @@ def test_npz_needs_a_brush_and_matching_arrays(tmp_path):
         load_strokes(path)
     with pytest.raises(StrokeFileError, match=r"do not fit brush=watercolor.*\[1, N, 8\]"):
         load_strokes(path, brush="watercolor")
+    path = npz(tmp_path / "t.npz", [[0.5, 0.5, 0.5, 0.25, 0.0]], [[0.2, 0.4, 0.6]], [[0.3, 0.3]])
+    with pytest.raises(StrokeFileError, match=r"x_alpha \(1, 2\) do not fit brush=tape.*\[1, N, 1\]"):
+        load_strokes(path, brush="tape")
+
+
+def test_npz_strokes_must_be_finite(tmp_path):
+    path = npz(tmp_path / "t.npz", [[0.5, 0.5, 0.5, 0.25, 0.0]] * 3, [[0.2, 0.4, 0.6], [0, 0, 0], [np.inf, 0, 0]],
+               [[0.3], [np.nan], [1.0]])
+    with pytest.raises(StrokeFileError, match=r"t.npz: 2 of 3 strokes hold NaN or infinite values \(first: stroke 1\)"):
+        load_strokes(path, brush="tape")

@@ -76,7 +76,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
         photo = load_image(cfg.image, max_side=max(cfg.work_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0))
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
-        check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size", frames=cfg.animation_frames)
+        check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size", frames=cfg.animation_frames + 1)
         if cfg.renderer.name == "analytic":
             renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
         elif cfg.renderer.checkpoint is None:

@@ -12,10 +12,15 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig
 from omegaconf.errors import MissingMandatoryValue
 
-from nsp.config import BrushConfig
+from nsp.brushes import get_brush
+from nsp.cli import BAD_INPUT, command, unknown_choice
+from nsp.config import CONF, BrushConfig
 from nsp.engine.canvas import parse_color
-from nsp.io.export import EXTENSIONS, write_painting
+from nsp.engine.memory import check_canvas, stroke_cover
+from nsp.io.export import EXTENSIONS, GIF_FRAMES, write_painting
 from nsp.io.strokes import load_strokes
+
+TEXT = ("strokes", "out", "canvas")  # free text: paths, ``#rrggbb``
 
 
 @dataclass
@@ -31,9 +36,13 @@ ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 
 
 def render(cfg: DictConfig) -> Path:
-    """Render ``cfg.strokes`` to ``cfg.out``; returns the written path."""
+    """Render ``cfg.strokes`` to ``cfg.out``; returns the written path. The file appears whole or
+    not at all: an error or an interrupt leaves no partial file."""
     out = Path(cfg.out)
-    if out.suffix.lower() not in EXTENSIONS:
+    suffix = out.suffix.lower()
+    if out.is_dir():
+        raise ValueError(f"out={cfg.out} is a folder; expected a file path ending in {', '.join(EXTENSIONS)}")
+    if suffix not in EXTENSIONS:
         raise ValueError(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS)}")
     if cfg.size <= 0:
         raise ValueError(f"size={cfg.size}: expected a positive number of pixels")
@@ -42,22 +51,39 @@ def render(cfg: DictConfig) -> Path:
     background = cfg.canvas if cfg.canvas is not None else painting.background
     parse_color(background)
     height, width = painting.size(cfg.size)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_painting(out, painting.brush, painting.strokes, width, height, background)
+    if suffix != ".svg":  # an SVG holds no pixels
+        cover = stroke_cover(get_brush(painting.brush), painting.strokes, height, width)
+        check_canvas(height, width, "size", cover, frames=GIF_FRAMES + 1 if suffix == ".gif" else 0)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ValueError(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
+    try:
+        write_painting(out, painting.brush, painting.strokes, width, height, background)
+    except OSError as err:
+        raise ValueError(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out
 
 
-@hydra.main(config_path="../../conf/render", config_name="render", version_base="1.3")
+@hydra.main(config_path=str(CONF / "render"), config_name="render", version_base="1.3")
 def main(cfg: DictConfig) -> None:
     try:
         print(f"wrote {render(cfg)}")
     except MissingMandatoryValue as err:
         print(f"error: {err.full_key}= is required (strokes=PATH out=PATH.png|.svg|.gif)", file=sys.stderr)
-        sys.exit(2)
+        sys.exit(BAD_INPUT)
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
-        sys.exit(2)
+        sys.exit(BAD_INPUT)
+    except KeyboardInterrupt:
+        print(f"interrupted: nothing written to {cfg.out}", file=sys.stderr)
+        raise
+
+
+def cli() -> None:
+    """The command line: ``python -m nsp.render``."""
+    command(main, check=lambda argv: unknown_choice(argv, CONF / "render"), text=TEXT)
 
 
 if __name__ == "__main__":
-    main()
+    cli()

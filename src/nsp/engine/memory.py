@@ -15,11 +15,11 @@ from torch import Tensor
 from nsp.brushes.base import Brush
 from nsp.engine.canvas import paint_canvas
 
-# Peak RSS over the pre-render baseline (ru_maxrss) of write_painting on the CPU, 1000–4000 px:
-CANVAS_BYTES = 37  # per canvas pixel, no strokes: PNG 36–38 B/px, GIF 25–26 B/px
-TILE_BYTES = 25  # per pixel of the largest chunk's stroke boxes: 19–24 B, 500-stroke paintings of each brush, PNG
-FRAME_BYTES = 2.5  # per pixel and GIF frame kept until the file is written: 51 frames add 118 B/px
-TYPICAL_COVER = 25.0  # stroke_cover of those paintings (progressive schedule, the painter's default): 13–25
+# Peak RSS over the pre-render baseline (ru_maxrss) of write_painting on the CPU:
+CANVAS_BYTES = 37  # per canvas pixel, no strokes: PNG 38.5, 36.6, 36.1 B/px at 1000, 2000, 4000 px; GIF 25–26
+TILE_BYTES = 25  # per pixel of the largest chunk's stroke boxes: 19–24 B, 500-stroke PNGs at 1000–2000 px
+FRAME_BYTES = 2.5  # per pixel and GIF frame kept until the file is written: 51 frames added 118 B/px at 1000 px
+TYPICAL_COVER = 25.0  # stroke_cover of those paintings (the painter's default progressive schedule): 13–25
 
 
 class MemoryLimit(ValueError):

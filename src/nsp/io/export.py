@@ -3,7 +3,10 @@ from __future__ import annotations
 
 import base64
 import io
-import math
+import os
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +17,9 @@ from torch import Tensor
 from nsp.brushes import get_brush
 from nsp.brushes.oilpaint import _OPAQUE
 from nsp.engine.canvas import paint_canvas, parse_color
-from nsp.engine.raster import composite, render
 
 EXTENSIONS = (".png", ".svg", ".gif")
+GIF_FRAMES = 50  # frames of an animation after its empty canvas
 
 
 def to_uint8(image: Tensor) -> np.ndarray:
@@ -24,31 +27,45 @@ def to_uint8(image: Tensor) -> np.ndarray:
     return (image.detach().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255 + 0.5).astype(np.uint8)
 
 
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` to write to; it becomes ``path`` only once the write has
+    finished, so an interrupted write leaves the old file or none, never a truncated one."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.stem}.{secrets.token_hex(4)}.tmp{path.suffix}")  # suffix: PIL's format
+    try:
+        yield temporary
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
 def write_png(path: str | Path, image: Tensor) -> None:
     """Save a (3, H, W) image in [0, 1]."""
-    Image.fromarray(to_uint8(image)).save(path)
+    with atomic_path(path) as temporary:
+        Image.fromarray(to_uint8(image)).save(temporary)
 
 
 def write_gif(
     path: str | Path, brush: str, strokes: Tensor, width: int, height: int, background: str = "white",
-    frames: int = 50, seconds: float = 4.0,
+    frames: int = GIF_FRAMES, seconds: float = 4.0,
 ) -> None:
-    """An animation of the strokes appearing in order, ``frames`` frames, the last held a second."""
+    """An animation of the strokes appearing in order, ``frames`` frames, the last held a second;
+    no strokes give one frame of the plain canvas."""
     spec = get_brush(brush)
-    color = torch.tensor(parse_color(background))[:, None, None]
+    color = torch.tensor(parse_color(background), dtype=strokes.dtype)[:, None, None]
     canvas = color.expand(3, height, width)
     ends = np.unique(np.linspace(0, len(strokes), min(frames, len(strokes)) + 1).round().astype(int))
-    images, start = [to_uint8(canvas)], 0
+    # Each frame kept as its palette image (1 byte a pixel) only. Fast octree palettes: Pillow's
+    # default quantizer takes seconds per frame.
+    palettes = [Image.fromarray(to_uint8(canvas)).quantize(256, Image.Quantize.FASTOCTREE)]
     with torch.no_grad():
-        for end in ends[1:]:
-            fg, alpha = render(spec, strokes[start:end], height, width)
-            canvas = composite(fg, alpha, canvas)
-            images.append(to_uint8(canvas))
-            start = end
-    durations = [round(1000 * seconds / len(images))] * (len(images) - 1) + [1000]
-    # Fast octree palettes: Pillow's default quantizer takes seconds per frame.
-    palettes = [Image.fromarray(image).quantize(256, Image.Quantize.FASTOCTREE) for image in images]
-    palettes[0].save(path, format="GIF", save_all=True, append_images=palettes[1:], duration=durations, loop=0)
+        for start, end in zip(ends[:-1], ends[1:]):
+            canvas = paint_canvas(spec, strokes[start:end], height, width, canvas=canvas)
+            palettes.append(Image.fromarray(to_uint8(canvas)).quantize(256, Image.Quantize.FASTOCTREE))
+    durations = [round(1000 * seconds / len(palettes))] * (len(palettes) - 1) + [1000]
+    with atomic_path(path) as temporary:
+        palettes[0].save(temporary, format="GIF", save_all=True, append_images=palettes[1:], duration=durations, loop=0)
 
 
 def _hex(rgb) -> str:
@@ -139,7 +156,8 @@ def write_svg(
             "</svg>",
         ]
     )
-    Path(path).write_text(svg)
+    with atomic_path(path) as temporary:
+        temporary.write_text(svg)
 
 
 def write_painting(path: str | Path, brush: str, strokes: Tensor, width: int, height: int, background: str) -> None:

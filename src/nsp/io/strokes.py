@@ -9,8 +9,9 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from nsp.brushes import get_brush
+from nsp.brushes import BRUSHES, get_brush
 from nsp.engine.canvas import parse_color
+from nsp.io.export import atomic_path
 
 FORMAT, VERSION = "nsp-strokes", 1
 
@@ -60,7 +61,8 @@ def save_strokes(path: str | Path, painting: StrokeFile) -> None:
         # float() of a float32 is exact, and JSON keeps every digit of a Python float.
         "strokes": [dict(zip(brush.params, map(float, row))) for row in painting.strokes.tolist()],
     }
-    Path(path).write_text(json.dumps(data, indent=1))
+    with atomic_path(path) as temporary:
+        temporary.write_text(json.dumps(data, indent=1))
 
 
 def load_strokes(path: str | Path, brush: str | None = None, size: int = 512) -> StrokeFile:
@@ -81,31 +83,66 @@ def load_strokes(path: str | Path, brush: str | None = None, size: int = 512) ->
 def _load_json(path: Path, brush: str | None) -> StrokeFile:
     try:
         data = json.loads(path.read_text())
-        if data.get("format") != FORMAT:
-            raise StrokeFileError(f"strokes={path} is not an nsp stroke file (no format '{FORMAT}')")
-        if data.get("version") != VERSION:
-            raise StrokeFileError(f"strokes={path} has version {data.get('version')}; this nsp reads {VERSION}")
-        spec = get_brush(data["brush"])
-        if brush is not None and brush != spec.name:
-            raise StrokeFileError(f"strokes={path} holds {spec.name} strokes, not brush={brush}")
-        rows = [[stroke[name] for name in spec.params] for stroke in data["strokes"]]
-        canvas = data["canvas"]
-        painting = StrokeFile(
-            spec.name,
-            torch.tensor(rows, dtype=torch.float32).reshape(-1, spec.d),
-            int(canvas["width"]),
-            int(canvas["height"]),
-            str(canvas["background"]),
-        )
-    except StrokeFileError:
-        raise
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise StrokeFileError(f"strokes={path} is not valid JSON ({err})") from None
-    except (KeyError, TypeError, ValueError) as err:
-        raise StrokeFileError(f"strokes={path} is malformed ({type(err).__name__}: {err})") from None
-    parse_color(painting.background)
-    spec.validate(painting.strokes)
-    return painting
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise StrokeFileError(
+            f"strokes={path} is not an nsp stroke file (expected a JSON object with format '{FORMAT}')"
+        )
+    if data.get("version") != VERSION:
+        raise StrokeFileError(f"strokes={path} has version {data.get('version')}; this nsp reads {VERSION}")
+    name = data.get("brush")
+    if not isinstance(name, str) or name not in BRUSHES:
+        raise StrokeFileError(f"strokes={path}: unknown brush {name!r}, expected one of: {', '.join(BRUSHES)}")
+    spec = get_brush(name)
+    if brush is not None and brush != spec.name:
+        raise StrokeFileError(f"strokes={path} holds {spec.name} strokes, not brush={brush}")
+    canvas = data.get("canvas")
+    if not (isinstance(canvas, dict) and all(_is_size(canvas.get(k)) for k in ("width", "height"))
+            and isinstance(canvas.get("background"), str)):
+        expected = '"canvas": {"width": pixels, "height": pixels, "background": colour}'
+        raise StrokeFileError(f"strokes={path} is malformed: expected {expected}")
+    try:
+        parse_color(canvas["background"])
+    except ValueError:
+        raise StrokeFileError(
+            f"strokes={path}: its background {canvas['background']!r} is not a colour; expected black, white or #rrggbb"
+        ) from None
+    strokes = data.get("strokes")
+    keys = ", ".join(spec.params)
+    if not isinstance(strokes, list) or not all(isinstance(s, dict) for s in strokes):
+        raise StrokeFileError(f'strokes={path} is malformed: expected "strokes": a list of objects with {keys}')
+    rows = [[stroke.get(key) for key in spec.params] for stroke in strokes]
+    lacking = sum(not all(_is_number(v) for v in row) for row in rows)
+    if lacking:
+        raise StrokeFileError(f"strokes={path}: {lacking} of {len(rows)} strokes lack a number for one of {keys}")
+    try:
+        values = torch.tensor(rows, dtype=torch.float32).reshape(-1, spec.d)
+    except OverflowError:  # an integer past any float
+        raise StrokeFileError(f"strokes={path}: a stroke parameter is far outside [0, 1]") from None
+    _check_range(path, values, spec.params)
+    return StrokeFile(spec.name, values, canvas["width"], canvas["height"], canvas["background"])
+
+
+def _is_size(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value > 0
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _check_range(path: Path, strokes: Tensor, params: tuple[str, ...]) -> None:
+    """Refuse strokes (N, d) with a parameter that is not a finite number in [0, 1]."""
+    good = (strokes >= 0) & (strokes <= 1)  # NaN fails both comparisons
+    bad = ~good.all(1)
+    if bad.any():
+        row = int(bad.nonzero()[0])
+        col = int((~good[row]).nonzero()[0])
+        raise StrokeFileError(
+            f"strokes={path}: {int(bad.sum())} of {len(strokes)} strokes have a parameter that is not a finite "
+            f"number in [0, 1], got {strokes[row, col].item():g} ({params[col]} of stroke {row})"
+        )
 
 
 # Reference conventions (SPEC §2) -> nsp's resolution-independent ones, at canvas width W.
@@ -139,10 +176,17 @@ def _load_npz(path: Path, brush: str, size: int) -> StrokeFile:
         raise StrokeFileError(f"strokes={path} is not a readable .npz ({err})") from None
     ctt, color, alpha = (a.reshape(-1, a.shape[-1]) if a.ndim == 3 else a for a in arrays)
     n_ctt, n_color = _REFERENCE_DIMS[spec.name]
-    if ctt.shape[1:] != (n_ctt,) or color.shape[1:] != (n_color,) or len(ctt) != len(color):
+    if ctt.shape[1:] != (n_ctt,) or color.shape[1:] != (n_color,) or len(ctt) != len(color) or alpha.size != len(ctt):
         raise StrokeFileError(
-            f"strokes={path}: x_ctt {ctt.shape} / x_color {color.shape} do not fit brush={brush} "
-            f"(expected [1, N, {n_ctt}] and [1, N, {n_color}])"
+            f"strokes={path}: x_ctt {ctt.shape} / x_color {color.shape} / x_alpha {alpha.shape} do not fit "
+            f"brush={brush} (expected [1, N, {n_ctt}], [1, N, {n_color}] and [1, N, 1])"
         )
-    strokes = _reference_to_nsp(spec.name, ctt, color, alpha.reshape(len(ctt), -1)[:, :1], size)
+    alpha = alpha.reshape(-1, 1)
+    bad = ~np.isfinite(np.concatenate([ctt, color, alpha], 1)).all(1)
+    if bad.any():
+        raise StrokeFileError(
+            f"strokes={path}: {bad.sum()} of {len(ctt)} strokes hold NaN or infinite values "
+            f"(first: stroke {bad.nonzero()[0][0]}); expected finite numbers"
+        )
+    strokes = _reference_to_nsp(spec.name, ctt, color, alpha, size)
     return StrokeFile(spec.name, torch.tensor(strokes, dtype=torch.float32), size, size, "white")
