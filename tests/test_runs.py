@@ -67,12 +67,15 @@ def test_default_dirs_are_claimed_once_so_runs_started_in_the_same_second_never_
     assert all(Path(d).is_dir() for d in dirs)
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-def test_a_signalled_painting_keeps_what_it_painted_and_exits_interrupted(sig, tmp_path):
+@pytest.mark.parametrize("signals", [[signal.SIGTERM], [signal.SIGINT], [signal.SIGINT, signal.SIGINT]],
+                         ids=["SIGTERM", "Ctrl-C", "Ctrl-C twice"])
+def test_a_signalled_painting_keeps_what_it_painted_and_exits_interrupted(signals, tmp_path):
     run = command("nsp.paint", "strokes=3000", "work_size=128", "progress=false", f"hydra.run.dir={tmp_path}")
     wait_for(tmp_path / "tensorboard", run)
     time.sleep(3)  # some strokes in
-    run.send_signal(sig)
+    for sig in signals:  # the second while the first one's files are being written
+        run.send_signal(sig)
+        time.sleep(0.05)
     assert run.wait(timeout=120) == INTERRUPTED
     stderr = run.stderr.read()
     assert "Traceback" not in stderr

@@ -30,6 +30,8 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, read_write
 from omegaconf.errors import OmegaConfBaseException
 
+from nsp.io.export import write_json
+
 FAILED = 1  # some work failed (a crash, or jobs of a sweep)
 BAD_INPUT = 2  # nothing started: a value was wrong
 INTERRUPTED = 130  # Ctrl-C or SIGTERM; shells report SIGINT as 130
@@ -46,7 +48,7 @@ def record(out: Path, status: str, error: str) -> None:
     """Write the job's ``metrics.json`` where the work did not: its status and the one-line reason."""
     out.mkdir(parents=True, exist_ok=True)
     if status == "failed" or not (out / "metrics.json").is_file():
-        (out / "metrics.json").write_text(json.dumps({"status": status, "error": error}, indent=2) + "\n")
+        write_json(out / "metrics.json", {"status": status, "error": error})
 
 
 def run_job(cfg: DictConfig, work: Callable[[DictConfig], dict], bad_input: tuple[type[Exception], ...] = (ValueError,)) -> dict | None:

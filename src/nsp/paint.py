@@ -6,7 +6,6 @@ Config: ``conf/paint/paint.yaml``; results in the Hydra run dir: ``final.png``, 
 """
 from __future__ import annotations
 
-import json
 import sys
 import time
 from pathlib import Path
@@ -17,6 +16,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from torch.utils.tensorboard import SummaryWriter
 
+from nsp.io.export import write_json
 from nsp.brushes import get_brush
 from nsp.cli import INTERRUPTED, command, run_job, shielded, unknown_choice
 from nsp.config import CONF
@@ -147,7 +147,7 @@ def paint(cfg: DictConfig) -> dict:
     final = write_strokes_and_png(out, strokes, *shared)
     write_vector_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames)
     metrics = similarity(final, photo) | {"seconds": round(time.perf_counter() - start, 2), "strokes": len(strokes)}
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 

@@ -11,7 +11,6 @@ Each is ``task(cfg, **arguments) -> metrics`` on ``nsp.paint``'s config: ``brush
 """
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -23,6 +22,7 @@ from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
 from torchvision.utils import make_grid
 
+from nsp.io.export import write_json
 from nsp.brushes import Brush, get_brush
 from nsp.engine import composite, paint_canvas, parse_color, render
 from nsp.io.export import write_png
@@ -175,7 +175,7 @@ def push(cfg: DictConfig, trials: int = 8, steps: int = 150, gap: float = 0.45,
         "seconds": round(time.perf_counter() - start_time, 2),
         "strokes": trials,
     }
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    write_json(out / "metrics.json", metrics)
     return metrics
 
 
@@ -264,7 +264,7 @@ def digits(cfg: DictConfig, count: int = 50, steps: int = 300, length: float = 0
     shown = min(count, 10)
     write_png(out / "digits.png", make_grid(torch.cat([target[:shown], start[:shown], painted[:shown]]).clamp(0, 1),
                                             nrow=shown, padding=2, pad_value=0.5))
-    (out / "digits.json").write_text(json.dumps({"psnr": scores.tolist(), "iou": iou.tolist()}) + "\n")
+    write_json(out / "digits.json", {"psnr": scores.tolist(), "iou": iou.tolist()})
     metrics = {
         "psnr": round(float(scores.mean()), 3),
         "psnr_std": round(float(scores.std()), 3),
@@ -274,5 +274,5 @@ def digits(cfg: DictConfig, count: int = 50, steps: int = 300, length: float = 0
         "seconds": round(time.perf_counter() - start_time, 2),
         "strokes": k,
     }
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    write_json(out / "metrics.json", metrics)
     return metrics

@@ -1,6 +1,7 @@
 """Paintings as files people open: PNG (the engine), SVG (vector elements), GIF (strokes in order)."""
 from __future__ import annotations
 
+import json
 import base64
 import io
 import os
@@ -38,6 +39,12 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         os.replace(temporary, path)
     finally:
         temporary.unlink(missing_ok=True)
+
+
+def write_json(path: str | Path, data: dict, indent: int = 2) -> None:
+    """Save ``data`` as JSON, atomically."""
+    with atomic_path(path) as temporary:
+        temporary.write_text(json.dumps(data, indent=indent) + "\n")
 
 
 def write_png(path: str | Path, image: Tensor) -> None:

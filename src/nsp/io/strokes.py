@@ -11,7 +11,7 @@ from torch import Tensor
 
 from nsp.brushes import BRUSHES, get_brush
 from nsp.engine.canvas import parse_color
-from nsp.io.export import atomic_path
+from nsp.io.export import write_json
 
 FORMAT, VERSION = "nsp-strokes", 1
 
@@ -61,8 +61,7 @@ def save_strokes(path: str | Path, painting: StrokeFile) -> None:
         # float() of a float32 is exact, and JSON keeps every digit of a Python float.
         "strokes": [dict(zip(brush.params, map(float, row))) for row in painting.strokes.tolist()],
     }
-    with atomic_path(path) as temporary:
-        temporary.write_text(json.dumps(data, indent=1))
+    write_json(path, data, indent=1)
 
 
 def load_strokes(path: str | Path, brush: str | None = None, size: int = 512) -> StrokeFile:

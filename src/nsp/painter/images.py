@@ -60,7 +60,7 @@ def load_image(spec: str, max_side: int | None = None) -> Tensor:
     """
     if spec in BUILTIN:
         return _decode(Image.fromarray(BUILTIN[spec]()), max_side)
-    path = Path(spec)
+    path = Path(spec).expanduser()
     if not path.is_file():
         raise ImageError(f"image={spec}: no such file; {VALID}")
     with _readable(spec):

@@ -1,7 +1,6 @@
 """Training neural renderers (SPEC §4, §6): the Lightning module, the stroke data, ``train(cfg)``."""
 from __future__ import annotations
 
-import json
 import pickle
 import time
 import warnings
@@ -17,6 +16,7 @@ from lightning.pytorch.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 from torch import nn
 
+from nsp.io.export import write_json
 from nsp.renderers import build
 from nsp.training.data import StrokeData
 from nsp.training.module import RendererModule
@@ -112,7 +112,7 @@ def _finish(trainer: L.Trainer, logger: TensorBoardLogger, cfg: DictConfig, scor
             "batch_size": cfg.data.batch_size, "lr": cfg.model.optimizer.get("lr"), "seed": cfg.seed,
         }
         logger.log_hyperparams(hparams, {"final/" + k.replace("/", "_"): metrics[k] for k in METRICS if k in metrics})
-        (Path(cfg.output_dir) / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+        write_json(Path(cfg.output_dir) / "metrics.json", metrics)
     return metrics
 
 
