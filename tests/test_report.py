@@ -7,6 +7,7 @@ from torch.utils.tensorboard import SummaryWriter
 
 from nsp.report import cli
 from nsp.reporting import write_report
+from nsp.reporting.collect import collect
 
 
 def fake_job(sweep: Path, num: int, overrides: list[str], metrics: dict | None, psnr_curve=()) -> None:
@@ -174,3 +175,18 @@ def test_margins_also_when_dual_jobs_come_from_another_experiment(tmp_path):
                  train_metrics(renderer, "oilpaint", 1.0, **{"test/psnr": score}))
     report = write_report(tmp_path)[0].read_text()
     assert "| renderer_ablation | dual_raster |" in report and "| dual_raster | +2.50 ± 0.00 |" in report
+
+
+def test_jobs_of_an_aborted_sweep_that_never_began_are_rows_too(tmp_path):
+    (tmp_path / "multirun.yaml").write_text(
+        "hydra:\n  sweeper:\n    params:\n      renderer: dcgan,dual\n  overrides:\n    task:\n    - brush=tape,watercolor\n"
+        "    - trainer.max_steps=100\n")
+    for num, (renderer, brush) in enumerate([("dcgan", "tape"), ("dcgan", "watercolor")]):
+        fake_job(tmp_path, num, [f"renderer={renderer}", f"brush={brush}", "trainer.max_steps=100"],
+                 train_metrics(renderer, brush, 15.0 + num))
+    jobs = collect(tmp_path)
+    assert [(job.num, job.status) for job in jobs] == [(0, "completed"), (1, "completed"), (2, "not run"), (3, "not run")]
+    assert jobs[3].overrides == {"renderer": "dual", "brush": "watercolor", "trainer.max_steps": "100"}
+    report = write_report(tmp_path)[0].read_text()
+    assert "4 jobs: 2 completed, 2 not run." in report
+    assert "- job 2: the sweep ended before this job began" in report

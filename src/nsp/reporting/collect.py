@@ -5,10 +5,15 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from hydra._internal.core_plugins.basic_sweeper import BasicSweeper  # the job order Hydra's sweepers plan
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import HydraException
 from omegaconf import OmegaConf
+from omegaconf.errors import OmegaConfBaseException
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 FAILED = "failed"
+NOT_RUN = "not run"
 
 
 @dataclass
@@ -83,13 +88,26 @@ def collect(sweep: Path) -> list[Job]:
         raise ValueError(f"{sweep} is not a directory; expected a Hydra multirun dir (job dirs with .hydra/overrides.yaml)")
     if is_job(sweep):
         return [read_job(sweep)]
-    jobs = sorted(
-        (read_job(p) for p in sweep.iterdir() if p.is_dir() and is_job(p)),
-        key=lambda job: (isinstance(job.num, str), job.num if isinstance(job.num, int) else 0, str(job.num)),
-    )
+    jobs = [read_job(p) for p in sweep.iterdir() if p.is_dir() and is_job(p)]
     if not jobs:
         raise ValueError(f"{sweep} holds no Hydra job; expected a run dir or job dirs with .hydra/overrides.yaml (a `-m` run's sweep dir)")
-    return jobs
+    ran = {job.num for job in jobs}
+    missing = [Job(num, sweep / str(num), dict(o.split("=", 1) for o in overrides), status=NOT_RUN,
+                   error="the sweep ended before this job began")
+               for num, overrides in enumerate(planned_jobs(sweep)) if num not in ran]
+    return sorted(jobs + missing, key=lambda job: (isinstance(job.num, str), job.num if isinstance(job.num, int) else 0, str(job.num)))
+
+
+def planned_jobs(sweep: Path) -> list[list[str]]:
+    """Each job's overrides (``key=value``), by job number, as the multirun planned them in its
+    ``multirun.yaml``, so jobs of an aborted sweep that never began are listed too; [] if unknown."""
+    try:
+        config = OmegaConf.load(sweep / "multirun.yaml")
+        params = [f"{key}={value}" for key, value in (config.hydra.sweeper.get("params") or {}).items()]
+        overrides = OverridesParser.create().parse_overrides(params + list(config.hydra.overrides.task))
+        return [job for batch in BasicSweeper.split_arguments(overrides, None) for job in batch]
+    except (OSError, OmegaConfBaseException, HydraException):
+        return []
 
 
 def latest_sweep(root: Path) -> Path:
