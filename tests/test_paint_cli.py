@@ -11,6 +11,7 @@ import pytest
 import torch
 from hydra import compose, initialize_config_dir
 from hydra.errors import ConfigCompositionException
+from omegaconf import OmegaConf
 from PIL import Image
 
 from nsp.io.strokes import load_strokes
@@ -150,3 +151,21 @@ def test_a_multirun_paints_several_images_in_parallel_processes():
     with initialize_config_dir(str(CONF), version_base="1.3"):
         cfg = compose("paint", return_hydra_config=True)
     assert cfg.hydra.launcher._target_.endswith("JoblibLauncher") and cfg.hydra.launcher.n_jobs == -1
+
+
+def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_that_renders(photo, tmp_path, monkeypatch):
+    from nsp.painter.painter import Painter
+    from nsp.render import render
+
+    def ctrl_c(self, target, n):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Painter, "paint", ctrl_c)
+    out = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        paint(config(f"image={photo}", f"output_dir={out}", "canvas='#204060'", *TINY))
+    assert len(load_strokes(out / "strokes.json").strokes) == 0
+    again = render(OmegaConf.create({"strokes": str(out / "strokes.json"), "out": str(tmp_path / "again.png"), "size": 30,
+                                     "canvas": None, "brush": None}))
+    pixels = np.asarray(Image.open(again))
+    assert pixels.shape == (20, 30, 3) and (pixels == (0x20, 0x40, 0x60)).all()
