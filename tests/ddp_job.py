@@ -9,7 +9,7 @@ import json
 import sys
 from pathlib import Path
 
-import lightning as L
+import pytorch_lightning as L
 import torch.distributed as dist
 from hydra import compose, initialize_config_dir
 

@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-import lightning as L
+import pytorch_lightning as L
 import numpy as np
 import pytest
 import torch

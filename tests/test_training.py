@@ -4,7 +4,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import lightning as L
+import pytorch_lightning as L
 import pytest
 import torch
 import torch.nn.functional as F

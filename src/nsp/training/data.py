@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-import lightning as L
+import pytorch_lightning as L
 import numpy as np
 import torch
 from torch import Tensor

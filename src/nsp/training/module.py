@@ -3,10 +3,10 @@ from __future__ import annotations
 
 from typing import Any, Callable, Optional
 
-import lightning as L
+import pytorch_lightning as L
 import torch
 import torch.nn.functional as F
-from lightning.pytorch.loggers import TensorBoardLogger
+from pytorch_lightning.loggers import TensorBoardLogger
 from torch import Tensor
 from torchmetrics.image import PeakSignalNoiseRatio
 from torchvision.utils import make_grid

@@ -66,9 +66,9 @@ class ModelConfig:
 
 @dataclass
 class TrainerConfig:
-    """The ``lightning.pytorch.Trainer`` arguments nsp sets; add others with ``+trainer.key=value``."""
+    """The ``pytorch_lightning.Trainer`` arguments nsp sets; add others with ``+trainer.key=value``."""
 
-    _target_: str = "lightning.pytorch.Trainer"
+    _target_: str = "pytorch_lightning.Trainer"
     accelerator: str = "cpu"
     devices: Any = 1
     num_nodes: int = 1
