@@ -54,8 +54,8 @@ def test_training_experiment_sweeps_the_papers_renderers_and_runs_two_steps(expe
         assert (cfg.model.size, cfg.data.epoch_size, cfg.trainer.max_epochs, cfg.trainer.accelerator) == (128, 50_000, 400, "gpu")
         assert cfg.model.optimizer.lr == 2e-4  # the paper's, for every renderer
     else:  # one budget for every renderer, in steps, small enough for a CPU
-        size = 64 if experiment.endswith("_64") else 32
-        assert (cfg.model.size, cfg.trainer.max_steps, cfg.data.batch_size, cfg.trainer.accelerator) == (size, 1500, 64, "cpu")
+        size, steps = (64, 500) if experiment.endswith("_64") else (32, 1500)
+        assert (cfg.model.size, cfg.trainer.max_steps, cfg.data.batch_size, cfg.trainer.accelerator) == (size, steps, 64, "cpu")
 
     cfg = compose_with_hydra("train", "train", [f"experiment={experiment}", "renderer=dual", "brush=watercolor",
                                                  *TINY_TRAIN, f"output_dir={tmp_path}"])
