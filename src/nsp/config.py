@@ -13,7 +13,7 @@ from hydra.core.config_store import ConfigStore
 
 from nsp.brushes import BRUSHES
 
-CONF = Path(__file__).resolve().parents[2] / "conf"  # each command's YAML: conf/paint, conf/train, conf/render
+CONF = Path(__file__).parent / "conf"  # each command's YAML: conf/paint, conf/train, conf/render (in a checkout, a link to the top-level conf/)
 
 
 @dataclass

@@ -1,0 +1,34 @@
+"""nsp as users install it: a wheel, not this checkout. Its four commands run from any folder."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).parents[1]
+
+
+def test_a_wheel_carries_its_configs_and_its_four_commands_run_outside_the_checkout(tmp_path):
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", str(ROOT),
+                    "-w", str(tmp_path / "wheel")], check=True, capture_output=True, cwd=tmp_path)
+    wheel = next((tmp_path / "wheel").glob("nsp-*.whl"))
+    subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(tmp_path / "site"), str(wheel)],
+                   check=True, capture_output=True)
+    env = os.environ | {"PYTHONPATH": str(tmp_path / "site")}  # ahead of this checkout's editable install
+
+    def run(*args: str) -> str:
+        done = subprocess.run([sys.executable, *args], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        return done.stdout
+
+    assert run("-c", "import nsp; print(nsp.__file__)").startswith(str(tmp_path / "site"))
+    run("-m", "nsp.paint", "strokes=6", "work_size=32", "render_size=64", "animation_size=32", "progress=false",
+        "hydra.run.dir=painting")
+    run("-m", "nsp.render", "strokes=painting/strokes.json", "size=48", "out=again.png")
+    run("-m", "nsp.train", "renderer=dcgan", "brush=tape", "model.size=32", "model.width=0.125", "data.batch_size=8",
+        "data.epoch_size=16", "data.val_size=8", "data.test_size=8", "data.num_workers=0", "trainer.max_steps=2",
+        "trainer.enable_progress_bar=false", "hydra.run.dir=training")
+    run("-m", "nsp.report", "training")
+    assert json.loads((tmp_path / "painting" / "metrics.json").read_text())["strokes"] == 6
+    assert (tmp_path / "again.png").is_file() and (tmp_path / "training" / "report.md").is_file()
+    assert json.loads((tmp_path / "training" / "metrics.json").read_text())["status"] == "completed"
