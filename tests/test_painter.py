@@ -1,4 +1,4 @@
-"""The painter (SPEC §5, paper §3): the progressive schedule, where strokes start, and the search."""
+"""The painter (paper §3.1): the progressive schedule, where strokes start, and the search."""
 from functools import partial
 
 import pytest

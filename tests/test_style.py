@@ -1,4 +1,4 @@
-"""Style transfer building blocks (issue 5, paper §3.6): feature networks, Gram and colour losses."""
+"""Style transfer building blocks (paper §3.5): feature networks, Gram and colour losses."""
 from __future__ import annotations
 
 import numpy as np

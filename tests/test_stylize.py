@@ -1,4 +1,4 @@
-"""Style transfer on strokes (issue 5): the style loss falls, colour mode keeps every shape, the
+"""Style transfer on strokes (paper §3.5): the style loss falls, colour mode keeps every shape, the
 painting's colours move toward the style's, and the random backbone is deterministic."""
 import subprocess
 import sys

@@ -1,4 +1,4 @@
-"""The transportation loss (SPEC §5): separable Sinkhorn, and why the painter needs it."""
+"""The transportation loss (paper §3.4): separable Sinkhorn, and why the painter needs it."""
 from __future__ import annotations
 
 import pytest

@@ -1,5 +1,5 @@
 """``python -m nsp.paint image=photo.jpg brush=oilpaint strokes=500``: paint a photo with vector
-strokes (SPEC §5, §6; paper §3).
+strokes (paper §3).
 
 Config: ``conf/paint/paint.yaml``; results in the Hydra run dir: ``final.png``, ``strokes.json``,
 ``painting.svg``, ``animation.gif``, ``metrics.json``, ``tensorboard/``.

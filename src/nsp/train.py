@@ -1,4 +1,4 @@
-"""``python -m nsp.train renderer=R brush=B``: train a neural stroke renderer (SPEC §4, §6).
+"""``python -m nsp.train renderer=R brush=B``: train a neural stroke renderer (paper §3.2).
 
 Config: ``conf/train/train.yaml``; results in the Hydra run dir (``metrics.json``, ``checkpoints/``,
 ``tensorboard/``).

@@ -1,4 +1,4 @@
-"""The four brushes of the paper (SPEC §2). Adding a brush: one module here and one line below."""
+"""The four brushes of the paper (§3.1, appendix tables). Adding a brush: one module here and one line below."""
 from __future__ import annotations
 
 import dataclasses

@@ -1,4 +1,4 @@
-"""The vector engine (SPEC §3): batched antialiased rasterization, its soft mode, compositing."""
+"""The vector engine: batched antialiased rasterization, its soft mode, compositing."""
 from nsp.engine.canvas import paint_canvas, parse_color
 from nsp.engine.raster import composite, render
 

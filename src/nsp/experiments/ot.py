@@ -1,4 +1,4 @@
-"""The transportation-loss studies (paper §3.5, §4.3), as painting experiments, L1 vs L1 + OT:
+"""The transportation-loss studies (paper §3.4, §4.3), as painting experiments, L1 vs L1 + OT:
 
 - :func:`push` (Figs. 4, 5): a stroke that starts with no overlap with its target stroke. A pixel
   loss gives its position no gradient there; the transport cost pulls it over.

@@ -144,7 +144,7 @@ def _check_range(path: Path, strokes: Tensor, params: tuple[str, ...]) -> None:
         )
 
 
-# Reference conventions (SPEC §2) -> nsp's resolution-independent ones, at canvas width W.
+# The reference implementation's conventions -> nsp's resolution-independent ones, at canvas width W.
 def _reference_to_nsp(brush: str, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, w: int) -> np.ndarray:
     if brush in ("watercolor", "markerpen"):
         x0, y0, x1, y1, x2, y2 = ctt[:, :6].T

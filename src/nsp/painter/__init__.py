@@ -1,4 +1,4 @@
-"""The painter (SPEC §5): parameter search for strokes that reproduce a target image.
+"""The painter (paper §3.1): parameter search for strokes that reproduce a target image.
 
 - :mod:`~nsp.painter.painter` — the search: levels of blocks painted as one batch, strokes added to
   each block's active set one at a time and optimized together;

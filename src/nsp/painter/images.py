@@ -1,4 +1,4 @@
-"""Target photos: a file, or one of the photos that ship with scikit-image / scikit-learn (SPEC §7)."""
+"""Target photos: a file, or one of the photos that ship with scikit-image / scikit-learn."""
 from __future__ import annotations
 
 from contextlib import contextmanager

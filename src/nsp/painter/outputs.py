@@ -1,4 +1,4 @@
-"""A painting's files (SPEC §6): final.png, strokes.json, painting.svg, animation.gif, and its scores."""
+"""A painting's files: final.png, strokes.json, painting.svg, animation.gif, and its scores."""
 from __future__ import annotations
 
 from pathlib import Path

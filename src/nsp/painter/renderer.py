@@ -1,4 +1,4 @@
-"""The painter's differentiable renderers behind one interface (SPEC §5, "renderers"):
+"""The painter's differentiable renderers behind one interface:
 ``renderer(x (B, d), size) -> (foreground (B, 3, size, size), alpha (B, 1, size, size))``.
 
 ``analytic`` is the vector engine's soft mode: any resolution, nothing to train. ``neural`` is a
@@ -35,7 +35,7 @@ class AnalyticRenderer:
 
 
 class NeuralRenderer:
-    """A trained network (SPEC §4) whose S×S output every block is resampled to."""
+    """A trained network (paper §3.2) whose S×S output every block is resampled to."""
 
     def __init__(self, network: nn.Module, size: int):
         self.network = network.eval().requires_grad_(False)  # only the strokes are optimized

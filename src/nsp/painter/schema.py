@@ -46,7 +46,7 @@ class ScheduleConfig:
 
 @dataclass
 class StyleConfig:
-    """Paint in the style of ``image`` (paper §3.6); ``image: null`` paints without style."""
+    """Paint in the style of ``image`` (paper §3.5); ``image: null`` paints without style."""
 
     image: Optional[str] = None
     mode: str = "full"  # full: every stroke parameter; color: colour parameters only

@@ -1,4 +1,4 @@
-"""Style transfer on strokes (paper §3.6): after the content painting, every stroke of the painting
+"""Style transfer on strokes (paper §3.5): after the content painting, every stroke of the painting
 is optimized further on the whole canvas with L = content loss + β_sty·L_style.
 
 ``mode="full"`` changes every parameter (colour and texture of the style), ``mode="color"`` only the

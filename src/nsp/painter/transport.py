@@ -1,4 +1,4 @@
-"""The transportation loss (paper §3.5, SPEC §5): entropic optimal transport between pixel masses.
+"""The transportation loss (paper §3.4): entropic optimal transport between pixel masses.
 
 A pixel loss is flat in a stroke's position while the stroke does not overlap its target; the
 transport cost grows with the distance the mass has to travel, so it pulls the stroke over.

@@ -1,4 +1,4 @@
-"""Neural stroke renderers (SPEC §4): a stroke vector x (B, d) -> foreground (B, 3, S, S), alpha (B, 1, S, S).
+"""Neural stroke renderers (paper §3.2): a stroke vector x (B, d) -> foreground (B, 3, S, S), alpha (B, 1, S, S).
 
 One module per family; each is a plain ``nn.Module`` built from ``conf/train/renderer/*.yaml`` by
 ``_target_`` and knows nothing of training.

@@ -1,4 +1,4 @@
-"""Style transfer (paper §3.6, SPEC §5): losses that pull a painting toward a style image's texture
+"""Style transfer (paper §3.5): losses that pull a painting toward a style image's texture
 (Gram matrices of a feature network) and colours (sliced Wasserstein)."""
 from nsp.style.features import (
     BACKBONES,

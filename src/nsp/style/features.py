@@ -1,4 +1,4 @@
-"""Feature networks for the style loss (paper §3.6): images (B, 3, H, W) in [0, 1] -> list of
+"""Feature networks for the style loss (paper §3.5): images (B, 3, H, W) in [0, 1] -> list of
 feature maps (B, C_i, H_i, W_i), frozen.
 
 ``vgg19``: torchvision's VGG-19 with ImageNet weights, read from a local file only (never

@@ -1,4 +1,4 @@
-"""Style losses (paper §3.6): Gram matrices of feature maps (Gatys et al.) and a sliced-Wasserstein
+"""Style losses (paper §3.5): Gram matrices of feature maps (Gatys et al.) and a sliced-Wasserstein
 colour term; :class:`StyleLoss` wraps them for the painter."""
 from __future__ import annotations
 

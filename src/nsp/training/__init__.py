@@ -1,4 +1,4 @@
-"""Training neural renderers (SPEC §4, §6): the Lightning module, the stroke data, ``train(cfg)``."""
+"""Training neural renderers (paper §3.2, §4): the Lightning module, the stroke data, ``train(cfg)``."""
 from __future__ import annotations
 
 import pickle
