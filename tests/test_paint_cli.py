@@ -12,7 +12,7 @@ import torch
 from hydra import compose, initialize_config_dir
 from hydra.errors import ConfigCompositionException
 from omegaconf import OmegaConf
-from PIL import Image
+from PIL import Image, ImageSequence
 
 from nsp.io.strokes import load_strokes
 from nsp.paint import BadInput, paint
@@ -169,3 +169,30 @@ def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_tha
                                      "canvas": None, "brush": None}))
     pixels = np.asarray(Image.open(again))
     assert pixels.shape == (20, 30, 3) and (pixels == (0x20, 0x40, 0x60)).all()
+
+
+def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_stroke_file(photo, tmp_path):
+    from nsp.io.export import write_svg
+    from nsp.render import render
+
+    def frames(path: Path) -> list[np.ndarray]:
+        return [np.asarray(frame.convert("RGB")) for frame in ImageSequence.Iterator(Image.open(path))]
+
+    texture = tmp_path / "bristles.png"
+    Image.fromarray((np.random.default_rng(0).random((24, 96)) > 0.5).astype(np.uint8) * 255).save(texture)
+    out = tmp_path / "run"
+    tiny = [o for o in TINY if not o.startswith("animation_frames")]  # the animation as nsp.render draws one
+    paint(config(f"image={photo}", f"output_dir={out}", f"brush.texture={texture}", *tiny))
+    painting = load_strokes(out / "strokes.json")
+    assert painting.texture == str(texture)
+    for name, size in (("final.png", 96), ("painting.svg", 96), ("animation.gif", 48)):
+        again = render(OmegaConf.create({"strokes": str(out / "strokes.json"), "out": str(tmp_path / name),
+                                         "size": size, "canvas": None, "brush": None}))
+        if name.endswith(".svg"):
+            assert again.read_text() == (out / name).read_text()
+        else:
+            drawn, painted = frames(again), frames(out / name)
+            assert len(drawn) == len(painted) and all((a == b).all() for a, b in zip(drawn, painted))
+    painting.texture = None  # the same strokes with nsp's own texture: another SVG
+    write_svg(tmp_path / "own.svg", painting.spec(), painting.strokes, 96, 64)
+    assert (tmp_path / "own.svg").read_text() != (out / "painting.svg").read_text()

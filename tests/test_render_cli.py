@@ -50,8 +50,8 @@ def test_svg_renders_like_the_png(name, painting, tmp_path):
     from nsp.io.export import write_painting
 
     p = load_strokes(painting(name))
-    write_painting(tmp_path / "a.png", p.brush, p.strokes, 120, 80, p.background)
-    write_painting(tmp_path / "a.svg", p.brush, p.strokes, 120, 80, p.background)
+    write_painting(tmp_path / "a.png", p.spec(), p.strokes, 120, 80, p.background)
+    write_painting(tmp_path / "a.svg", p.spec(), p.strokes, 120, 80, p.background)
     drawn = np.asarray(Image.open(io.BytesIO(bytes(resvg.svg_to_bytes(svg_path=str(tmp_path / "a.svg"))))).convert("RGB"))
     assert drawn.shape == (80, 120, 3)
     assert psnr(drawn.astype(np.float64), read(tmp_path / "a.png")) > 24

@@ -12,7 +12,6 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig
 from omegaconf.errors import MissingMandatoryValue
 
-from nsp.brushes import get_brush
 from nsp.cli import BAD_INPUT, command, unknown_choice
 from nsp.config import CONF, BrushConfig
 from nsp.engine.canvas import parse_color
@@ -52,14 +51,14 @@ def render(cfg: DictConfig) -> Path:
     parse_color(background)
     height, width = painting.size(cfg.size)
     if suffix != ".svg":  # an SVG holds no pixels
-        cover = stroke_cover(get_brush(painting.brush), painting.strokes, height, width)
+        cover = stroke_cover(painting.spec(), painting.strokes, height, width)
         check_canvas(height, width, "size", cover, frames=GIF_FRAMES + 1 if suffix == ".gif" else 0)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise ValueError(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
     try:
-        write_painting(out, painting.brush, painting.strokes, width, height, background)
+        write_painting(out, painting.spec(), painting.strokes, width, height, background)
     except OSError as err:
         raise ValueError(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out

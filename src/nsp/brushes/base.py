@@ -44,6 +44,7 @@ class Brush:
     alpha: int | None = None
     description: str = ""
     options: dict = field(default_factory=dict)
+    texture_path: str | None = None  # the image of an oil brush's bristle texture; None: nsp's own
 
     @property
     def d(self) -> int:

@@ -25,7 +25,6 @@ def sample(texture: Tensor, u: Tensor, v: Tensor) -> Tensor:
 
 @dataclass(frozen=True, eq=False)
 class OilPaint(Brush):
-    texture_path: str | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     def texture(self, device, dtype, canvas_width: int | None = None) -> Tensor:

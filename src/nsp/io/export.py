@@ -15,7 +15,7 @@ import torch
 from PIL import Image
 from torch import Tensor
 
-from nsp.brushes import get_brush
+from nsp.brushes import Brush
 from nsp.brushes.oilpaint import _OPAQUE
 from nsp.engine.canvas import paint_canvas, parse_color
 
@@ -54,12 +54,11 @@ def write_png(path: str | Path, image: Tensor) -> None:
 
 
 def write_gif(
-    path: str | Path, brush: str, strokes: Tensor, width: int, height: int, background: str = "white",
+    path: str | Path, brush: Brush, strokes: Tensor, width: int, height: int, background: str = "white",
     frames: int = GIF_FRAMES, seconds: float = 4.0,
 ) -> None:
     """An animation of the strokes appearing in order, ``frames`` frames, the last held a second;
     no strokes give one frame of the plain canvas."""
-    spec = get_brush(brush)
     color = torch.tensor(parse_color(background), dtype=strokes.dtype)[:, None, None]
     canvas = color.expand(3, height, width)
     ends = np.unique(np.linspace(0, len(strokes), min(frames, len(strokes)) + 1).round().astype(int))
@@ -68,7 +67,7 @@ def write_gif(
     palettes = [Image.fromarray(to_uint8(canvas)).quantize(256, Image.Quantize.FASTOCTREE)]
     with torch.no_grad():
         for start, end in zip(ends[:-1], ends[1:]):
-            canvas = paint_canvas(spec, strokes[start:end], height, width, canvas=canvas)
+            canvas = paint_canvas(brush, strokes[start:end], height, width, canvas=canvas)
             palettes.append(Image.fromarray(to_uint8(canvas)).quantize(256, Image.Quantize.FASTOCTREE))
     durations = [round(1000 * seconds / len(palettes))] * (len(palettes) - 1) + [1000]
     with atomic_path(path) as temporary:
@@ -142,15 +141,15 @@ def _element(brush: str, i: int, p: np.ndarray, w: int, h: int) -> tuple[str, st
 
 
 def write_svg(
-    path: str | Path, brush: str, strokes: Tensor, width: int, height: int, background: str = "white"
+    path: str | Path, brush: Brush, strokes: Tensor, width: int, height: int, background: str = "white"
 ) -> None:
-    """Each stroke as SVG elements, in painting order, on a ``width``×``height`` canvas."""
-    spec = get_brush(brush)
+    """Each stroke as SVG elements, in painting order, on a ``width``×``height`` canvas; an oil
+    brush's own texture (nsp's, or the user's) is embedded."""
     defs, body = [], []
-    if spec.name == "oilpaint":
-        defs += _oil_defs(spec.texture("cpu", torch.float32)[0, 0].numpy())
+    if brush.name == "oilpaint":
+        defs += _oil_defs(brush.texture("cpu", torch.float32)[0, 0].numpy())
     for i, p in enumerate(strokes.detach().cpu().double().numpy()):
-        d, e = _element(spec.name, i, p, width, height)
+        d, e = _element(brush.name, i, p, width, height)
         defs.append(d)
         body.append(e)
     svg = "\n".join(
@@ -167,12 +166,12 @@ def write_svg(
         temporary.write_text(svg)
 
 
-def write_painting(path: str | Path, brush: str, strokes: Tensor, width: int, height: int, background: str) -> None:
+def write_painting(path: str | Path, brush: Brush, strokes: Tensor, width: int, height: int, background: str) -> None:
     """Write ``path`` as PNG, SVG or GIF by its extension."""
     suffix = Path(path).suffix.lower()
     if suffix == ".png":
         with torch.no_grad():
-            write_png(path, paint_canvas(get_brush(brush), strokes, height, width, background))
+            write_png(path, paint_canvas(brush, strokes, height, width, background))
     elif suffix == ".svg":
         write_svg(path, brush, strokes, width, height, background)
     elif suffix == ".gif":

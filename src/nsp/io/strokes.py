@@ -9,7 +9,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from nsp.brushes import BRUSHES, get_brush
+from nsp.brushes import BRUSHES, Brush, get_brush
 from nsp.engine.canvas import parse_color
 from nsp.io.export import write_json
 
@@ -30,6 +30,8 @@ class StrokeFile:
         width, height: the canvas size the strokes were made for; only the aspect ratio matters,
             strokes render at any size.
         background: canvas colour, ``black``, ``white`` or ``#rrggbb``.
+        texture: the image an oil painting's bristle texture came from (``brush.texture=PATH``);
+            None for nsp's own.
     """
 
     brush: str
@@ -37,6 +39,11 @@ class StrokeFile:
     width: int = 512
     height: int = 512
     background: str = "white"
+    texture: str | None = None
+
+    def spec(self) -> Brush:
+        """The brush the strokes are painted with, its texture included."""
+        return get_brush(self.brush, self.texture)
 
     def size(self, long_side: int) -> tuple[int, int]:
         """(height, width) in pixels for a render whose long side is ``long_side``."""
@@ -46,7 +53,7 @@ class StrokeFile:
 
 def save_strokes(path: str | Path, painting: StrokeFile) -> None:
     """Write ``painting`` as nsp JSON; :func:`load_strokes` reads back exactly the same values."""
-    brush = get_brush(painting.brush)
+    brush = painting.spec()
     data = {
         "format": FORMAT,
         "version": VERSION,
@@ -61,6 +68,8 @@ def save_strokes(path: str | Path, painting: StrokeFile) -> None:
         # float() of a float32 is exact, and JSON keeps every digit of a Python float.
         "strokes": [dict(zip(brush.params, map(float, row))) for row in painting.strokes.tolist()],
     }
+    if painting.texture is not None:
+        data["texture"] = str(Path(painting.texture).resolve())  # re-renders from any folder
     write_json(path, data, indent=1)
 
 
@@ -120,7 +129,15 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
     except OverflowError:  # an integer past any float
         raise StrokeFileError(f"strokes={path}: a stroke parameter is far outside [0, 1]") from None
     _check_range(path, values, spec.params)
-    return StrokeFile(spec.name, values, canvas["width"], canvas["height"], canvas["background"])
+    texture = data.get("texture")
+    if texture is not None and not isinstance(texture, str):
+        raise StrokeFileError(f'strokes={path} is malformed: expected "texture": the path of an image')
+    if texture is not None:
+        try:
+            get_brush(spec.name, texture)
+        except ValueError as error:
+            raise StrokeFileError(f"strokes={path}: its oil texture cannot be used: {error}") from None
+    return StrokeFile(spec.name, values, canvas["width"], canvas["height"], canvas["background"], texture)
 
 
 def _is_size(value) -> bool:
