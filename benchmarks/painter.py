@@ -25,6 +25,7 @@ import torch
 from nsp.brushes import BRUSHES, get_brush
 from nsp.painter.images import load_image, resize
 from nsp.painter.losses import PaintLoss
+from nsp.painter.schema import LossConfig
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
 from nsp.renderers import build
@@ -54,7 +55,7 @@ def seconds_per_step(renderer, brush_name: str, steps: int = 4) -> tuple[float, 
     seconds per optimizer step, and the block side in pixels the renderer works at."""
     brush = get_brush(brush_name)
     target = resize(load_image("astronaut"), 256)
-    painter = Painter(brush, renderer, PaintLoss(1.0, 0.0), partial(torch.optim.RMSprop, lr=0.003), grids=[5],
+    painter = Painter(brush, renderer, PaintLoss.from_config(LossConfig()), partial(torch.optim.RMSprop, lr=0.003), grids=[5],
                       steps_per_stroke=steps)
     painter.paint(target, 25)  # warm-up: first-call costs (the optimizer's imports, the texture)
     start = time.perf_counter()

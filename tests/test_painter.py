@@ -28,7 +28,7 @@ def painter(brush: str = "tape", renderer=None, **options) -> Painter:
     return Painter(
         spec,
         renderer or AnalyticRenderer(spec, softness=0.5, block_size=32),
-        PaintLoss(l1=1.0, ot=0.0),
+        PaintLoss(l1=1.0, ot=0.0, grid=48, eps=0.01, iters=5),
         partial(torch.optim.RMSprop, lr=0.01),
         generator=torch.Generator().manual_seed(0),
         **{"steps_per_stroke": 4, **options},
@@ -159,11 +159,11 @@ def test_interrupted_painting_keeps_the_strokes_painted_so_far():
 
 def test_losses_are_weighted_and_the_transport_term_is_optional():
     canvas, target = torch.rand(2, 3, 16, 16), torch.rand(2, 3, 16, 16)
-    only_l1 = PaintLoss(l1=1.0, ot=0.0)(canvas, target)
-    both = PaintLoss(l1=1.0, ot=0.1, grid=8)(canvas, target)
+    only_l1 = PaintLoss(l1=1.0, ot=0.0, grid=48, eps=0.01, iters=5)(canvas, target)
+    both = PaintLoss(l1=1.0, ot=0.1, grid=8, eps=0.01, iters=5)(canvas, target)
     assert set(only_l1) == {"l1", "total"} and set(both) == {"l1", "ot", "total"}
     torch.testing.assert_close(both["total"], both["l1"] + 0.1 * both["ot"])
-    extra = PaintLoss(l1=1.0, ot=0.0, extra={"style": (0.5, lambda c: c.mean())})(canvas, target)
+    extra = PaintLoss(l1=1.0, ot=0.0, grid=48, eps=0.01, iters=5, extra={"style": (0.5, lambda c: c.mean())})(canvas, target)
     torch.testing.assert_close(extra["total"], extra["l1"] + 0.5 * canvas.mean())
 
 

@@ -28,9 +28,14 @@ TINY_PAINT = ["strokes=8", "work_size=48", "render_size=64", "animation_size=32"
 TINY_TRAIN = ["renderer=dcgan", "brush=tape", "data.num_workers=0"]
 
 
+def foreground() -> None:
+    """Ctrl-C as in a terminal's foreground job: a background shell job (CI) inherits SIGINT ignored."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def command(name: str, *args: str, cwd: Path = ROOT) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", name, *args], cwd=cwd, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=foreground)
 
 
 def wait_for(path: Path, process: subprocess.Popen, timeout: float = 120) -> None:

@@ -12,6 +12,7 @@ from functools import partial
 from nsp.brushes import get_brush
 from nsp.engine import paint_canvas
 from nsp.painter.losses import PaintLoss
+from nsp.painter.schema import LossConfig
 from nsp.painter.stylize import stylize
 from nsp.style import StyleLoss, sliced_wasserstein
 
@@ -34,7 +35,7 @@ def scene():
 def run(scene, mode, steps=25, seed=0, callbacks=()):
     brush, strokes, target, style_image = scene
     style = StyleLoss(style_image, "random", seed=seed, color_weight=2.0 if mode == "color" else 0.0)
-    return stylize(brush, strokes, target, PaintLoss(ot=0), style, partial(torch.optim.RMSprop, lr=0.01),
+    return stylize(brush, strokes, target, PaintLoss.from_config(LossConfig()), style, partial(torch.optim.RMSprop, lr=0.01),
                    weight=0.5, steps=steps, mode=mode, callbacks=callbacks), style
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from nsp.io.strokes import load_strokes
+from test_runs import foreground
 from nsp.reporting import write_report
 
 TINY_TRAIN = ["model.width=0.125", "trainer.max_steps=2", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16",
@@ -59,7 +60,8 @@ def test_an_interrupted_parallel_sweep_keeps_each_jobs_painting_and_starts_no_ot
     run = subprocess.Popen([sys.executable, "-m", "nsp.paint", "-m", "image=astronaut,chelsea,coffee", "strokes=20000",
                             "work_size=128", "progress=false", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
                             f"hydra.sweep.dir={tmp_path}"],
-                           start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                           start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           preexec_fn=foreground)
     deadline = time.monotonic() + 180
     while not all((tmp_path / job / "tensorboard").exists() for job in ("0_oilpaint", "1_oilpaint")):
         assert run.poll() is None and time.monotonic() < deadline, run.communicate()[1]

@@ -9,6 +9,7 @@ from nsp.engine import render
 from nsp.painter.transport import dense_sinkhorn, sinkhorn, transport_loss
 
 SIZE = 48
+PAPER = (48, 0.01, 5)  # the transportation loss as the painter runs it: grid, ε, Sinkhorn iterations
 SIDE = 12.5 / SIZE  # half side 6.25 px: edges cut pixels at a quarter, away from coverage kinks
 
 
@@ -60,7 +61,7 @@ def test_non_overlapping_stroke_has_no_l1_gradient_but_is_pulled_to_its_target(s
     _, target = tape_canvas(goal, background, ink)
     params, canvas = tape_canvas(start, background, ink)
     l1 = (canvas - target).abs().mean()
-    ot = transport_loss(canvas, target, background=(background,) * 3)
+    ot = transport_loss(canvas, target, *PAPER, background=(background,) * 3)
     (l1_grad,) = torch.autograd.grad(l1, params, retain_graph=True)
     (ot_grad,) = torch.autograd.grad(ot, params)
     assert l1_grad[0, 0] == 0  # the pixel loss is flat: moving the stroke only moves its area
@@ -71,7 +72,7 @@ def test_non_overlapping_stroke_has_no_l1_gradient_but_is_pulled_to_its_target(s
 def test_loss_is_entropic_blur_for_identical_images_and_grows_with_distance():
     _, target = tape_canvas(30)
     shifts = (0, 1, 2, 4, 8, 16, 24)  # pixels to the left
-    losses = [transport_loss(tape_canvas(30 - shift)[1], target).item() for shift in shifts]
+    losses = [transport_loss(tape_canvas(30 - shift)[1], target, *PAPER).item() for shift in shifts]
     assert losses[0] < 0.01  # identical: only the entropic blur remains, about ε at most
     assert all(near < far for near, far in zip(losses, losses[1:]))
     assert losses[-1] > 20 * losses[0]
@@ -80,8 +81,8 @@ def test_loss_is_entropic_blur_for_identical_images_and_grows_with_distance():
 def test_batch_equals_loop_and_any_input_size():
     torch.manual_seed(1)
     canvas, target = torch.rand(3, 3, 64, 80), torch.rand(3, 3, 64, 80)
-    batched = transport_loss(canvas, target)
-    looped = torch.stack([transport_loss(c[None], t[None]) for c, t in zip(canvas, target)]).mean()
+    batched = transport_loss(canvas, target, *PAPER)
+    looped = torch.stack([transport_loss(c[None], t[None], *PAPER) for c, t in zip(canvas, target)]).mean()
     torch.testing.assert_close(batched, looped)
 
 
@@ -92,7 +93,7 @@ def test_gradients_are_finite_even_for_empty_images(background):
     photo = torch.rand(2, 3, 32, 32)
     for canvas, target in [(blank, blank), (blank, photo), (photo, blank)]:
         canvas = canvas.clone().requires_grad_()
-        loss = transport_loss(canvas, target, background=background)
+        loss = transport_loss(canvas, target, *PAPER, background=background)
         (grad,) = torch.autograd.grad(loss, canvas)
         assert torch.isfinite(loss) and loss >= 0
         assert torch.isfinite(grad).all()

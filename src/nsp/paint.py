@@ -92,8 +92,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
                               cfg.seed, cfg.style.color_weight if cfg.style.mode == "color" else 0.0)
     except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None
-    loss = PaintLoss(cfg.loss.l1, cfg.loss.ot, cfg.loss.ot_grid, cfg.loss.ot_eps, cfg.loss.ot_iters,
-                     parse_color(cfg.canvas))
+    loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.canvas))
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
                       overlap=s.overlap, steps_per_stroke=s.steps_per_stroke, init_size=s.init_size,
                       background=cfg.canvas, generator=torch.Generator().manual_seed(cfg.seed))

@@ -40,7 +40,7 @@ def setup(cfg: DictConfig) -> tuple[Brush, object, PaintLoss, Tensor]:
     else:
         renderer = load_neural(cfg.renderer.checkpoint, brush)
     background = parse_color(cfg.canvas)
-    loss = PaintLoss(cfg.loss.l1, cfg.loss.ot, cfg.loss.ot_grid, cfg.loss.ot_eps, cfg.loss.ot_iters, background)
+    loss = PaintLoss.from_config(cfg.loss, background)
     return brush, renderer, loss, torch.tensor(background)
 
 

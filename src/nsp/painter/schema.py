@@ -23,7 +23,8 @@ class RendererConfig:
 
 @dataclass
 class LossConfig:
-    """L = l1·L1 + ot·L_ot (paper: 1 and 0.1); the transportation loss on an ot_grid² grid."""
+    """L = l1·L1 + ot·L_ot (paper: 1 and 0.1; ``loss=l1_ot``); the transportation loss on an
+    ot_grid² grid, ε = ot_eps, ot_iters Sinkhorn iterations: the one place these defaults live."""
 
     l1: float = 1.0
     ot: float = 0.0

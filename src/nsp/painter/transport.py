@@ -118,9 +118,9 @@ def dense_sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> T
 def transport_loss(
     canvas: Tensor,
     target: Tensor,
-    grid: int = 48,
-    eps: float = 0.01,
-    iters: int = 5,
+    grid: int,
+    eps: float,
+    iters: int,
     background: tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> Tensor:
     """The painter's transportation loss L_ot between a canvas and its target.
