@@ -30,7 +30,7 @@ from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, w
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer, load_neural
 import nsp.painter.schema  # noqa: F401  (registers ``paint_schema``)
-from nsp.painter.stylize import MODES, stylize
+from nsp.painter.stylize import stylize
 from nsp.style import StyleLoss, WeightsNotFound, load_style_image
 
 POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_frames", "renderer.softness",
@@ -83,9 +83,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
             raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
         else:
             renderer = load_neural(cfg.renderer.checkpoint, brush)
-        if cfg.style.mode not in MODES or cfg.style.steps < 0 or cfg.style.size <= 0:
-            raise BadInput(f"style.mode={cfg.style.mode}, style.steps={cfg.style.steps}, style.size="
-                           f"{cfg.style.size}: expected mode in {', '.join(MODES)}, steps ≥ 0, size > 0")
+        if cfg.style.steps < 0 or cfg.style.size <= 0:
+            raise BadInput(f"style.steps={cfg.style.steps}, style.size={cfg.style.size}: expected steps ≥ 0, size > 0")
         style = None
         if cfg.style.image is not None:
             style = StyleLoss(load_style_image(cfg.style.image, cfg.style.size), cfg.style.backbone, cfg.style.weights,

@@ -3,12 +3,19 @@ key or a value of the wrong type fails at compose time, naming the key."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, Optional
 
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
 from nsp.config import BrushConfig  # also registers the ``brush`` group
+from nsp.painter.stylize import MODES
+from nsp.style import BACKBONES
+
+# Typed choices: Hydra rejects any other value when it composes, listing these.
+StyleMode = StrEnum("StyleMode", {mode: mode for mode in MODES})
+Backbone = StrEnum("Backbone", {name: name for name in BACKBONES})
 
 
 @dataclass
@@ -50,11 +57,11 @@ class StyleConfig:
     """Paint in the style of ``image`` (paper §3.5); ``image: null`` paints without style."""
 
     image: Optional[str] = None
-    mode: str = "full"  # full: every stroke parameter; color: colour parameters only
+    mode: StyleMode = StyleMode.full  # full: every stroke parameter; color: colour parameters only
     weight: float = 0.5  # β_sty (paper 0.5)
     steps: int = 200  # paper 200
     size: int = 128  # long side of the canvas the style steps run on (CPU-friendly)
-    backbone: str = "vgg19"  # vgg19 (ImageNet weights, offline) or random (no weights needed)
+    backbone: Backbone = Backbone.vgg19  # vgg19 (ImageNet weights, offline) or random (no weights needed)
     weights: Optional[str] = None  # VGG-19 state dict; None: the torch hub cache
     color_weight: float = 2.0  # colour mode: weight of the sliced-Wasserstein colour term
 

@@ -61,7 +61,7 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
         brush=cfg.brush.name,
         optimizer=instantiate(cfg.model.optimizer),
         scheduler=instantiate(cfg.model.scheduler),
-        scheduler_interval=cfg.model.scheduler_interval,
+        scheduler_interval=str(cfg.model.scheduler_interval),
     )
     logger = TensorBoardLogger(out, name="tensorboard", version="", default_hp_metric=False)
     checkpoints = out / "checkpoints"

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, Optional
 
 from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
@@ -47,6 +48,9 @@ class DataConfig:
     compile: bool = False  # render through torch.compile'd engine stages: ~3x faster, after a one-off compile
 
 
+Interval = StrEnum("Interval", {"epoch": "epoch", "step": "step"})  # Hydra rejects any other at compose time
+
+
 @dataclass
 class ModelConfig:
     size: int = 128  # output side S: 32, 64 or 128
@@ -61,7 +65,7 @@ class ModelConfig:
         }
     )
     scheduler: Any = None  # LRScheduler _partial_, from the ``schedule`` group
-    scheduler_interval: str = "epoch"  # when the scheduler steps: "epoch" or "step"
+    scheduler_interval: Interval = Interval.epoch  # when the scheduler steps
 
 
 @dataclass
