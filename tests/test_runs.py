@@ -154,3 +154,9 @@ def test_a_painting_reads_an_unquoted_colour_and_an_awkward_path(tmp_path):
     assert run.wait(timeout=300) == 0, run.stderr.read()
     assert load_strokes(tmp_path / "run" / "strokes.json").background == "#a0522d"
     assert Image.open(tmp_path / "run" / "final.png").size == (64, 43)
+
+
+def test_the_sweep_flag_may_stand_anywhere_in_the_command_line(tmp_path):
+    run = command("nsp.paint", *TINY_PAINT, "-m", "seed=0,1", "canvas=#a0522d", f"hydra.sweep.dir={tmp_path}")
+    assert run.wait(timeout=300) == 0, run.stderr.read()
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_dir()) == ["0_oilpaint", "1_oilpaint"]

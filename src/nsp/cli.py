@@ -213,12 +213,14 @@ def command(main: Callable[[], Any], check: Callable[[list[str]], str | None] | 
             text: Iterable[str] = ()) -> None:
     """Run a command's Hydra ``main`` from the command line.
 
-    First the command line: ``text`` keys' values are quoted where Hydra needs it; an override
-    Hydra cannot read, or one ``check`` (argv -> message or None) objects to, ends with one line
-    and :data:`BAD_INPUT`. Then SIGTERM is treated as Ctrl-C, and an interrupt the work has already
+    First the command line: ``-m`` may stand anywhere in it; ``text`` keys' values are quoted where
+    Hydra needs it; an override Hydra cannot read, or one ``check`` (argv -> message or None)
+    objects to, ends with one line and :data:`BAD_INPUT`. Then SIGTERM is treated as Ctrl-C, and an interrupt the work has already
     handled (files kept, message printed) ends with :data:`INTERRUPTED`, not a traceback.
     """
-    sys.argv[1:] = argv = quote_text(sys.argv[1:], text)
+    argv = sys.argv[1:]
+    sweep = [arg for arg in argv if arg in ("-m", "--multirun")]  # anywhere in the line, as users type it
+    sys.argv[1:] = argv = quote_text(sweep + [arg for arg in argv if arg not in sweep], text)
     for arg in argv:
         if "=" in arg and not arg.startswith("-") and (complaint := _unreadable(arg)):
             _bad_input(f"cannot read {arg!r} ({complaint}); quote its value: key='...'")
