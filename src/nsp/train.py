@@ -28,7 +28,12 @@ def main(cfg: DictConfig) -> float | None:
         print(f"interrupted: resume with ckpt_path={last} hydra.run.dir={cfg.output_dir}" if last.is_file() else
               "interrupted before training began; nothing saved", file=sys.stderr)
         sys.exit(INTERRUPTED)
-    return None if metrics is None else metrics["val/psnr"]
+    if metrics is None:  # a failed job of a sweep, recorded in its dir
+        return None
+    print(f"trained {metrics['renderer']} on {metrics['brush']}: {metrics['steps']} steps in {metrics['seconds']:.0f} s, "
+          f"test PSNR {metrics['test/psnr']:.2f} dB (validation {metrics['val/psnr']:.2f}): {cfg.output_dir} "
+          f"(metrics.json, checkpoints/best.ckpt, last.ckpt)")
+    return metrics["val/psnr"]
 
 
 def cli() -> None:

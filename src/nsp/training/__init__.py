@@ -1,11 +1,13 @@
 """Training neural renderers (paper §3.2, §4): the Lightning module, the stroke data, ``train(cfg)``."""
 from __future__ import annotations
 
+import logging
 import pickle
 import time
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import pytorch_lightning as L
 import torch
@@ -51,6 +53,11 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
     check(cfg)
     if cfg.ckpt_path is not None:
         check_checkpoint(cfg.ckpt_path, cfg.renderer.name, cfg.brush.name, cfg.model.size)
+    with quiet_lightning():
+        return _fit(cfg, callbacks)
+
+
+def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
     L.seed_everything(cfg.seed, workers=True)
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
@@ -83,15 +90,33 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
 
     start = time.perf_counter()
     try:
-        with warnings.catch_warnings():  # StrokeData's sampler resumes mid-epoch exactly (EpochSampler.done)
-            warnings.filterwarnings("ignore", "You're resuming from a checkpoint that ended before the epoch ended")
-            trainer.fit(model, datamodule=data, ckpt_path=cfg.ckpt_path)
+        trainer.fit(model, datamodule=data, ckpt_path=cfg.ckpt_path)
     except SystemExit:  # Lightning exits after Ctrl-C or SIGTERM, once last.ckpt is saved
         _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
         raise KeyboardInterrupt from None
     trainer.save_checkpoint(checkpoints / "last.ckpt")  # the final step's, also where max_steps ends mid-epoch
     scores = trainer.validate(model, datamodule=data, verbose=False)[0] | trainer.test(model, datamodule=data, verbose=False)[0]
     return _finish(trainer, logger, cfg, scores, start, "completed")
+
+
+@contextmanager
+def quiet_lightning() -> Iterator[None]:
+    """Lightning without its noise: its INFO lines (tips, device lines, "fit stopped"), a torch-internal
+    deprecation it triggers, the logging-interval hint of short runs, and the mid-epoch resume
+    warning (StrokeData's sampler resumes mid-epoch exactly). Its other warnings stay."""
+    logs = [logging.getLogger(name) for name in ("pytorch_lightning", "lightning_fabric")]
+    levels = [log.level for log in logs]
+    for log in logs:
+        log.setLevel(logging.WARNING)
+    try:
+        with warnings.catch_warnings():
+            for message in ("You're resuming from a checkpoint that ended before the epoch ended",
+                            r".*isinstance\(treespec, LeafSpec\)", "The number of training batches .* logging interval"):
+                warnings.filterwarnings("ignore", message)
+            yield
+    finally:
+        for log, level in zip(logs, levels):
+            log.setLevel(level)
 
 
 def _finish(trainer: L.Trainer, logger: TensorBoardLogger, cfg: DictConfig, scores, start: float, status: str) -> dict:

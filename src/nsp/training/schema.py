@@ -93,6 +93,7 @@ class TrainerConfig:
     sync_batchnorm: bool = False
     use_distributed_sampler: bool = True
     enable_progress_bar: bool = True
+    enable_model_summary: bool = False  # Lightning's layer table; the parameter count is in the summary line
 
 
 @dataclass
