@@ -169,22 +169,25 @@ def check(module: str, argv: list[str], words: str, run_dir: Path, capsys, monke
     assert all(p.stat().st_mtime_ns == t for p, t in before.items() if p.exists() and p.name in RESULTS)
 
 
+def in_run_dir(overrides: list[str], files: dict[str, str], tmp_path: Path) -> tuple[list[str], Path]:
+    """A case's command line with its files filled in, and the run dir it writes to (a fresh one,
+    unless the case names the finished run's)."""
+    argv = [o.format(**files) for o in overrides]
+    if any(a.startswith("hydra.run.dir") for a in argv):
+        return argv, Path(files["previous"])
+    return [*argv, f"hydra.run.dir={tmp_path / 'run'}"], tmp_path / "run"
+
+
 @pytest.mark.parametrize(("case", "overrides", "words"), PAINT, ids=[case for case, _, _ in PAINT])
 def test_paint(case, overrides, words, files, tmp_path, capsys, monkeypatch):
-    argv = [o.format(**files) for o in overrides]
-    run_dir = Path(files["previous"]) if "{previous}" in " ".join(overrides) else tmp_path / "run"
-    if not any(a.startswith("hydra.run.dir") for a in argv):
-        argv.append(f"hydra.run.dir={run_dir}")
+    argv, run_dir = in_run_dir(overrides, files, tmp_path)
     small = [d for d in PAINT_BASE if d.split("=")[0] not in {a.split("=")[0] for a in argv}]  # fast if a check misses
     check("nsp.paint", [*small, *argv], words, run_dir, capsys, monkeypatch)
 
 
 @pytest.mark.parametrize(("case", "overrides", "words"), TRAIN, ids=[case for case, _, _ in TRAIN])
 def test_train(case, overrides, words, files, tmp_path, capsys, monkeypatch):
-    argv = [o.format(**files) for o in overrides]
-    run_dir = Path(files["previous"]) if "{previous}" in " ".join(overrides) else tmp_path / "run"
-    if not any(a.startswith("hydra.run.dir") for a in argv):
-        argv.append(f"hydra.run.dir={run_dir}")
+    argv, run_dir = in_run_dir(overrides, files, tmp_path)
     check("nsp.train", [*TRAIN_BASE, *argv], words, run_dir, capsys, monkeypatch)
 
 

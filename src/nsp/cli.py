@@ -215,8 +215,9 @@ def command(main: Callable[[], Any], check: Callable[[list[str]], str | None] | 
 
     First the command line: ``-m`` may stand anywhere in it; ``text`` keys' values are quoted where
     Hydra needs it; an override Hydra cannot read, or one ``check`` (argv -> message or None)
-    objects to, ends with one line and :data:`BAD_INPUT`. Then SIGTERM is treated as Ctrl-C, and an interrupt the work has already
-    handled (files kept, message printed) ends with :data:`INTERRUPTED`, not a traceback.
+    objects to, ends with one line and :data:`BAD_INPUT`. Then SIGTERM is treated as Ctrl-C, and an
+    interrupt the work has already handled (files kept, message printed) ends with
+    :data:`INTERRUPTED`, not a traceback.
     """
     argv = sys.argv[1:]
     sweep = [arg for arg in argv if arg in ("-m", "--multirun")]  # anywhere in the line, as users type it

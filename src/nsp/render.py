@@ -45,20 +45,21 @@ def render(cfg: DictConfig) -> Path:
         raise ValueError(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS)}")
     if cfg.size <= 0:
         raise ValueError(f"size={cfg.size}: expected a positive number of pixels")
-    brush = cfg.brush.name if cfg.get("brush") else None
-    painting = load_strokes(cfg.strokes, brush=brush, size=cfg.size)
+    name = cfg.brush.name if cfg.get("brush") else None  # reference .npz files only
+    painting = load_strokes(cfg.strokes, brush=name, size=cfg.size)
     background = cfg.canvas if cfg.canvas is not None else painting.background
     parse_color(background)
     height, width = painting.size(cfg.size)
+    brush = painting.spec()
     if suffix != ".svg":  # an SVG holds no pixels
-        cover = stroke_cover(painting.spec(), painting.strokes, height, width)
+        cover = stroke_cover(brush, painting.strokes, height, width)
         check_canvas(height, width, "size", cover, frames=GIF_FRAMES + 1 if suffix == ".gif" else 0)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise ValueError(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
     try:
-        write_painting(out, painting.spec(), painting.strokes, width, height, background)
+        write_painting(out, brush, painting.strokes, width, height, background)
     except OSError as err:
         raise ValueError(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out
