@@ -45,7 +45,7 @@ if __name__ == "__main__":
     with initialize_config_dir(str(CONF), version_base="1.3"):
         cfg = compose("train", overrides=[
             "trainer=ddp", "trainer.accelerator=cpu", "trainer.devices=2", "trainer.max_steps=2",
-            "renderer=dcgan", "model.width=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=32",
+            "renderer=dcgan", "model.channel_mult=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=32",
             "data.test_size=32", "data.num_workers=0", "trainer.num_sanity_val_steps=0", "trainer.log_every_n_steps=1",
             "trainer.enable_progress_bar=false", f"output_dir={out}",
         ])

@@ -34,8 +34,8 @@ PAINT = [  # (case id, overrides, words the one line must contain)
     ("work_size one pixel", ["work_size=1"], "work_size=1"),
     ("animation_size zero", ["animation_size=0"], "animation_size=0"),
     ("animation_frames zero", ["animation_frames=0"], "animation_frames=0"),
-    ("canvas not a colour", ["canvas=blue-ish"], "canvas=blue-ish is not a colour"),
-    ("canvas short hex", ["canvas=#12345"], "#12345"),
+    ("background not a colour", ["background=blue-ish"], "background=blue-ish is not a colour"),
+    ("background short hex", ["background=#12345"], "#12345"),
     ("brush unknown", ["brush=oil"], "brush=oil: no such brush"),
     ("brush texture missing", ["brush.texture=/nonexistent/paper.png"], "/nonexistent/paper.png"),
     ("brush texture not an image", ["brush.texture={notes}"], "notes.txt"),
@@ -77,7 +77,7 @@ TRAIN = [
     ("size not offered", ["model.size=48"], "48"),
     ("size not a number", ["model.size=abc"], "model.size=abc"),
     ("renderer and data sizes differ", ["renderer.size=64"], "renderer.size=64 differs from model.size=32"),
-    ("width zero", ["model.width=0"], "model.width=0"),
+    ("channel_mult zero", ["model.channel_mult=0"], "model.channel_mult=0"),
     ("batch_size zero", ["data.batch_size=0"], "data.batch_size=0"),
     ("epoch_size zero", ["data.epoch_size=0"], "data.epoch_size=0"),
     ("epoch under a batch", ["data.epoch_size=10", "data.batch_size=64"], "data.epoch_size=10"),
@@ -88,7 +88,7 @@ TRAIN = [
     ("max_steps zero", ["trainer.max_steps=0"], "trainer.max_steps=0"),
     ("max_steps not a number", ["trainer.max_steps=many"], "trainer.max_steps=many"),
     ("key misspelt", ["trainer.max_epoch=3"], "Did you mean 'trainer.max_epochs'"),
-    ("schedule unknown", ["schedule=nope"], "schedule=nope"),
+    ("lr_schedule unknown", ["lr_schedule=nope"], "lr_schedule=nope"),
     ("preset unknown", ["preset=huge"], "preset=huge"),
     ("experiment unknown", ["experiment=nope"], "experiment=nope"),
     ("texture missing", ["brush=oilpaint", "brush.texture=/nonexistent/paper.png"], "/nonexistent/paper.png"),
@@ -102,7 +102,7 @@ TRAIN = [
     ("run dir holds a run", ["hydra.run.dir={previous}"], "already holds a run"),
 ]
 PAINT_BASE = ["strokes=4", "work_size=32", "render_size=64", "animation_size=32", "progress=false"]
-TRAIN_BASE = ["renderer=dcgan", "brush=tape", "model.size=32", "model.width=0.125", "data.batch_size=8",
+TRAIN_BASE = ["renderer=dcgan", "brush=tape", "model.size=32", "model.channel_mult=0.125", "data.batch_size=8",
               "data.epoch_size=16", "data.val_size=8", "data.test_size=8", "data.num_workers=0", "trainer.max_steps=1",
               "trainer.enable_progress_bar=false"]
 
@@ -206,7 +206,7 @@ RENDER = [
     ("size zero", ["strokes={painting}", "size=0", "out={tmp}/r/out.png"], "size=0"),
     ("size not a number", ["strokes={painting}", "size=abc", "out={tmp}/r/out.png"], "size=abc"),
     ("size beyond memory", ["strokes={painting}", "size=10000000", "out={tmp}/r/out.png"], "size=10000000"),
-    ("canvas not a colour", ["strokes={painting}", "canvas=blue-ish", "out={tmp}/r/out.png"], "blue-ish"),
+    ("background not a colour", ["strokes={painting}", "background=blue-ish", "out={tmp}/r/out.png"], "blue-ish"),
     ("brush unknown", ["strokes={npz}", "brush=oil", "out={tmp}/r/out.png"], "brush=oil"),
 ]
 

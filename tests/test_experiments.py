@@ -15,7 +15,7 @@ from nsp.training.schema import register_configs
 
 CONF = Path(__file__).parents[1] / "conf"
 TINY_TRAIN = [
-    "model.size=32", "model.width=0.125", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16", "data.test_size=16",
+    "model.size=32", "model.channel_mult=0.125", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16", "data.test_size=16",
     "trainer.max_steps=2", "trainer.accelerator=cpu", "trainer.num_sanity_val_steps=0", "trainer.log_every_n_steps=1",
 ]
 COMPARISON, ABLATION, BRUSHES = "dcgan,pxlshuffle,unet,dual", "dual_raster,dual_shading,dual", "oilpaint,watercolor"
@@ -94,7 +94,7 @@ def test_ot_push_moves_a_stroke_and_records_position_error(paint_experiment, tmp
 
 def test_ot_digits_starts_strokes_off_the_ink_and_scores_it_with_spread(paint_experiment, tmp_path):
     cfg = paint_experiment("ot_digits", "loss=l1", "task.steps=2", "task.count=3", "strokes=2")
-    assert (cfg.hydra.sweeper.params.loss, cfg.brush.name, cfg.canvas, cfg.task.count) == ("l1,l1_ot", "markerpen", "black", 3)
+    assert (cfg.hydra.sweeper.params.loss, cfg.brush.name, cfg.background, cfg.task.count) == ("l1,l1_ot", "markerpen", "black", 3)
     metrics = instantiate(cfg.task)(cfg)
     assert {"psnr", "psnr_std", "iou", "iou_std", "seconds"} <= metrics.keys() and 0 <= metrics["iou"] <= 1
     assert metrics["iou_start"] == 0  # no start stroke touches its digit's ink

@@ -25,7 +25,7 @@ def test_a_wheel_carries_its_configs_and_its_four_commands_run_outside_the_check
     run("-m", "nsp.paint", "strokes=6", "work_size=32", "render_size=64", "animation_size=32", "progress=false",
         "hydra.run.dir=painting")
     run("-m", "nsp.render", "strokes=painting/strokes.json", "size=48", "out=again.png")
-    run("-m", "nsp.train", "renderer=dcgan", "brush=tape", "model.size=32", "model.width=0.125", "data.batch_size=8",
+    run("-m", "nsp.train", "renderer=dcgan", "brush=tape", "model.size=32", "model.channel_mult=0.125", "data.batch_size=8",
         "data.epoch_size=16", "data.val_size=8", "data.test_size=8", "data.num_workers=0", "trainer.max_steps=2",
         "trainer.enable_progress_bar=false", "hydra.run.dir=training")
     run("-m", "nsp.report", "training")

@@ -81,7 +81,7 @@ def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeyp
         ("image=missing.jpg", "image=missing.jpg: no such file; give a PNG/JPEG path or one of: astronaut"),
         ("image={notes}", "is not an image"),
         ("strokes=0", "strokes=0: expected a positive number"),
-        ("canvas=blue-ish", "canvas=blue-ish is not a colour"),
+        ("background=blue-ish", "background=blue-ish is not a colour"),
         ("schedule.init_size=[0.5,0.1]", "schedule.init_size=[0.5, 0.1]: expected [low, high]"),
     ],
 )
@@ -106,7 +106,7 @@ def save_checkpoint(path: Path, brush: str) -> Path:
     """A tiny, untrained renderer saved as ``nsp.train`` saves one."""
     from nsp.training import RendererModule
 
-    module = RendererModule({"_target_": "nsp.renderers.DualPathway", "size": 32, "width": 0.125}, brush,
+    module = RendererModule({"_target_": "nsp.renderers.DualPathway", "size": 32, "channel_mult": 0.125}, brush,
                             optimizer=torch.optim.Adam)
     torch.save({"state_dict": module.state_dict(), "hyper_parameters": dict(module.hparams)}, path)
     return path
@@ -163,7 +163,7 @@ def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_tha
     monkeypatch.setattr(Painter, "paint", ctrl_c)
     out = tmp_path / "run"
     with pytest.raises(KeyboardInterrupt):
-        paint(config(f"image={photo}", f"output_dir={out}", "canvas='#204060'", *TINY))
+        paint(config(f"image={photo}", f"output_dir={out}", "background='#204060'", *TINY))
     assert len(load_strokes(out / "strokes.json").strokes) == 0
     again = render(OmegaConf.create({"strokes": str(out / "strokes.json"), "out": str(tmp_path / "again.png"), "size": 30,
                                      "canvas": None, "brush": None}))

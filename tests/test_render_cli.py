@@ -59,7 +59,7 @@ def test_svg_renders_like_the_png(name, painting, tmp_path):
 
 def test_png_and_gif_from_the_command_line(painting, tmp_path):
     path = painting("watercolor")
-    result = run(f"strokes={path}", "size=240", "canvas=white", f"out={tmp_path / 'w.png'}")
+    result = run(f"strokes={path}", "size=240", "background=white", f"out={tmp_path / 'w.png'}")
     assert result.returncode == 0, result.stderr
     image = read(tmp_path / "w.png")
     assert image.shape == (160, 240, 3)  # long side 240, the file's 3:2 aspect kept
@@ -73,7 +73,7 @@ def test_png_and_gif_from_the_command_line(painting, tmp_path):
 def test_reference_npz_renders_with_brush(tmp_path):
     np.savez(tmp_path / "r.npz", x_ctt=np.array([[[0.5, 0.5, 0.5, 0.25, 0.0]]]), x_color=np.array([[[1.0, 0, 0]]]),
              x_alpha=np.array([[[1.0]]]))
-    result = run(f"strokes={tmp_path / 'r.npz'}", "brush=tape", "size=64", "canvas=black", f"out={tmp_path / 'r.png'}")
+    result = run(f"strokes={tmp_path / 'r.npz'}", "brush=tape", "size=64", "background=black", f"out={tmp_path / 'r.png'}")
     assert result.returncode == 0, result.stderr
     image = read(tmp_path / "r.png")
     assert image[32, 32, 0] == 255 and image[0, 0].sum() == 0
@@ -84,7 +84,7 @@ def test_reference_npz_renders_with_brush(tmp_path):
     [
         (["out=x.bmp"], "unknown extension '.bmp', expected one of .png, .svg, .gif"),
         (["strokes=missing.json"], "no such file"),
-        (["canvas=blue"], "canvas=blue is not a colour"),
+        (["background=blue"], "background=blue is not a colour"),
         (["brush=oil"], "brush=oil: no such brush; expected one of: oilpaint"),
         (["size=0"], "size=0: expected a positive number"),
         (["size=-5"], "size=-5: expected a positive number"),

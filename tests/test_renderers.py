@@ -17,7 +17,7 @@ def renderer_config(name: str, size: int = 32, width: float = SMALL) -> dict:
     """The real ``conf/train/renderer/<name>.yaml``, resolved at ``size`` and ``width``."""
     register_configs()
     with initialize_config_dir(str(CONF), version_base="1.3"):
-        cfg = compose("train", overrides=[f"renderer={name}", f"model.size={size}", f"model.width={width}"])
+        cfg = compose("train", overrides=[f"renderer={name}", f"model.size={size}", f"model.channel_mult={width}"])
     return {k: cfg.renderer[k] for k in cfg.renderer}
 
 

@@ -91,7 +91,7 @@ def test_a_signalled_painting_keeps_what_it_painted_and_exits_interrupted(signal
 
 
 def test_sigterm_on_training_saves_the_stopping_step_and_exits_interrupted(tmp_path):
-    run = command("nsp.train", *TINY_TRAIN, "model.width=0.125", "data.batch_size=8", "data.val_size=16", "data.test_size=16",
+    run = command("nsp.train", *TINY_TRAIN, "model.channel_mult=0.125", "data.batch_size=8", "data.val_size=16", "data.test_size=16",
                   "trainer.max_steps=100000", "trainer.enable_progress_bar=false", f"hydra.run.dir={tmp_path}")
     wait_for(tmp_path / "checkpoints", run, timeout=180)  # the first validation is done: training runs
     run.send_signal(signal.SIGTERM)
@@ -140,8 +140,8 @@ def test_a_checkpoint_that_cannot_be_resumed_is_one_line(tmp_path):
 
 
 def test_paths_and_colours_are_quoted_for_hydra_where_it_needs_it():
-    assert quote_text(["canvas=#a0522d", "strokes=10", "image=~/my photo (1).jpg"], ["canvas", "image"]) == [
-        "canvas='#a0522d'", "strokes=10", "image='~/my photo (1).jpg'"]
+    assert quote_text(["background=#a0522d", "strokes=10", "image=~/my photo (1).jpg"], ["background", "image"]) == [
+        "background='#a0522d'", "strokes=10", "image='~/my photo (1).jpg'"]
     assert quote_text(["-m", "image=a[1].png,b.png"], ["image"]) == ["-m", "image='a[1].png','b.png'"]
     assert quote_text(["image=it's=é.png"], ["image"]) == ["image='it\\'s=é.png'"]
     assert quote_text(["image=plain.png"], ["image"]) == ["image=plain.png"]
@@ -150,13 +150,13 @@ def test_paths_and_colours_are_quoted_for_hydra_where_it_needs_it():
 def test_a_painting_reads_an_unquoted_colour_and_an_awkward_path(tmp_path):
     photo = tmp_path / "été (1) [x]=~.png"
     Image.fromarray(np.full((20, 30, 3), 200, np.uint8)).save(photo)
-    run = command("nsp.paint", *TINY_PAINT, f"image={photo}", "canvas=#a0522d", f"hydra.run.dir={tmp_path / 'run'}")
+    run = command("nsp.paint", *TINY_PAINT, f"image={photo}", "background=#a0522d", f"hydra.run.dir={tmp_path / 'run'}")
     assert run.wait(timeout=300) == 0, run.stderr.read()
     assert load_strokes(tmp_path / "run" / "strokes.json").background == "#a0522d"
     assert Image.open(tmp_path / "run" / "final.png").size == (64, 43)
 
 
 def test_the_sweep_flag_may_stand_anywhere_in_the_command_line(tmp_path):
-    run = command("nsp.paint", *TINY_PAINT, "-m", "seed=0,1", "canvas=#a0522d", f"hydra.sweep.dir={tmp_path}")
+    run = command("nsp.paint", *TINY_PAINT, "-m", "seed=0,1", "background=#a0522d", f"hydra.sweep.dir={tmp_path}")
     assert run.wait(timeout=300) == 0, run.stderr.read()
     assert sorted(p.name for p in tmp_path.iterdir() if p.is_dir()) == ["0_oilpaint", "1_oilpaint"]

@@ -13,7 +13,7 @@ from nsp.io.strokes import load_strokes
 from test_runs import foreground
 from nsp.reporting import write_report
 
-TINY_TRAIN = ["model.width=0.125", "trainer.max_steps=2", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16",
+TINY_TRAIN = ["model.channel_mult=0.125", "trainer.max_steps=2", "data.batch_size=8", "data.epoch_size=16", "data.val_size=16",
               "data.test_size=16", "data.num_workers=0", "trainer.enable_progress_bar=false"]
 TINY_PAINT = ["strokes=8", "work_size=64", "render_size=64", "animation_size=64", "progress=false"]
 

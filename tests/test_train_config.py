@@ -40,14 +40,14 @@ def test_default_is_the_cpu_preset_of_dual_watercolor():
 
 def test_paper_preset_is_the_papers_training():
     cfg = compose_train("preset=paper", "trainer=gpu")
-    assert (cfg.model.size, cfg.model.width, cfg.data.batch_size, cfg.data.epoch_size) == (128, 1.0, 64, 50_000)
+    assert (cfg.model.size, cfg.model.channel_mult, cfg.data.batch_size, cfg.data.epoch_size) == (128, 1.0, 64, 50_000)
     assert cfg.trainer.max_epochs == 400 and cfg.trainer.accelerator == "gpu"
     assert (cfg.model.optimizer.lr, list(cfg.model.optimizer.betas)) == (2e-4, [0.9, 0.999])
     assert (cfg.model.scheduler.step_size, cfg.model.scheduler.gamma, cfg.model.scheduler_interval) == (100, 0.1, "epoch")
 
 
 def test_renderer_config_builds_the_renderer_for_the_brush():
-    cfg = compose_train("renderer=dual_shading", "brush=markerpen", "model.width=0.125")
+    cfg = compose_train("renderer=dual_shading", "brush=markerpen", "model.channel_mult=0.125")
     renderer = build(OmegaConf.to_container(cfg.renderer, resolve=True), cfg.brush.name)
     assert renderer.rasterization is None and renderer.size == 32
 
@@ -58,7 +58,7 @@ def test_renderer_config_builds_the_renderer_for_the_brush():
         ("renderer=triple", ["renderer/triple", "dcgan", "dual_raster", "pxlshuffle", "unet"]),
         ("brush=oil", ["brush/oil", "oilpaint", "watercolor", "markerpen", "tape"]),
         ("trainer.max_epochs=abc", ["trainer.max_epochs", "abc"]),
-        ("model.width=wide", ["model.width", "wide"]),
+        ("model.channel_mult=wide", ["model.channel_mult", "wide"]),
     ],
 )
 def test_bad_override_fails_at_compose_time(override, words):
@@ -71,7 +71,7 @@ def test_bad_override_fails_at_compose_time(override, words):
 
 @pytest.mark.parametrize(
     "override, suggestion",
-    [("trainer.max_epoch=3", "trainer.max_epochs"), ("data.batch_sise=2", "data.batch_size"), ("renderer.widht=1", "renderer.width")],
+    [("trainer.max_epoch=3", "trainer.max_epochs"), ("data.batch_sise=2", "data.batch_size"), ("renderer.channel_mlt=1", "renderer.channel_mult")],
 )
 def test_misspelt_key_gets_did_you_mean(override, suggestion):
     assert f"Did you mean '{suggestion}'?" in misspelt_key([override])

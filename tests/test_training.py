@@ -19,7 +19,7 @@ from nsp.training.data import EpochSampler, RandomStrokes
 from nsp.training.schema import register_configs
 
 CONF = Path(__file__).parents[1] / "conf" / "train"
-TINY = {"_target_": "nsp.renderers.DualPathway", "size": 32, "width": 0.125}
+TINY = {"_target_": "nsp.renderers.DualPathway", "size": 32, "channel_mult": 0.125}
 
 
 def tiny_trainer(**kwargs) -> L.Trainer:
@@ -111,7 +111,7 @@ def compose_train(tmp_path: Path, *overrides: str):
     register_configs()
     with initialize_config_dir(str(CONF), version_base="1.3"):
         cfg = compose("train", overrides=[
-            "model.width=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=16", "data.test_size=16",
+            "model.channel_mult=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=16", "data.test_size=16",
             "trainer.max_steps=8", "trainer.log_every_n_steps=2", "trainer.num_sanity_val_steps=0", "trainer.enable_progress_bar=false",
             f"output_dir={tmp_path}", *overrides,
         ], return_hydra_config=True)

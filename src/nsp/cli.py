@@ -187,7 +187,7 @@ def _interrupt(signum: int, frame: Any) -> None:
 
 def quote_text(argv: list[str], keys: Iterable[str]) -> list[str]:
     """``argv`` with the free-text values of ``keys`` (paths, colours) quoted for Hydra where its
-    override grammar cannot read them bare: ``canvas=#a0522d``, ``image=~/photo (1).jpg``. In a
+    override grammar cannot read them bare: ``background=#a0522d``, ``image=~/photo (1).jpg``. In a
     multirun (``-m``) the commas still separate the values of a sweep."""
     sweep = "-m" in argv or "--multirun" in argv
     quoted = []

@@ -36,7 +36,7 @@ from nsp.style import StyleLoss, WeightsNotFound, load_style_image
 POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_frames", "renderer.softness",
             "renderer.block_size", "schedule.max_per_block")
 
-TEXT = ("image", "canvas", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
+TEXT = ("image", "background", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
 
 MIN_WORK_SIZE = 16  # the coarsest canvas strokes are optimized on, in pixels
 
@@ -72,7 +72,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     if s.grids is not None and (not s.grids or min(s.grids) < 1):
         raise BadInput(f"schedule.grids={list(s.grids)}: expected blocks per side of each level, e.g. [1, 2, 3]")
     try:
-        parse_color(cfg.canvas)
+        parse_color(cfg.background)
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
         photo = load_image(cfg.image, max_side=max(cfg.work_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0))
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
@@ -91,10 +91,10 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
                               cfg.seed, cfg.style.color_weight if cfg.style.mode == "color" else 0.0)
     except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None
-    loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.canvas))
+    loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.background))
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
                       overlap=s.overlap, steps_per_stroke=s.steps_per_stroke, init_size=s.init_size,
-                      background=cfg.canvas, generator=torch.Generator().manual_seed(cfg.seed))
+                      background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
     return painter, photo, style
 
 
@@ -109,7 +109,7 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
 
         return stylize(painter.brush, strokes, resize(photo, cfg.style.size), painter.loss, style,
                        instantiate(cfg.optimizer), weight=cfg.style.weight, steps=cfg.style.steps,
-                       mode=cfg.style.mode, background=cfg.canvas, softness=cfg.renderer.softness, callbacks=[log])
+                       mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness, callbacks=[log])
 
 
 def paint(cfg: DictConfig) -> dict:
@@ -125,7 +125,7 @@ def paint(cfg: DictConfig) -> dict:
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
-    shared = (painter.brush, photo.shape[-2:], cfg.canvas, cfg.render_size)  # brush, aspect, background, size
+    shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
     with SummaryWriter(out / "tensorboard") as writer, ProgressBar(cfg.strokes, cfg.progress) as bar:
         painter.callbacks += [TensorBoard(writer), bar]
         try:

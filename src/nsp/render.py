@@ -1,4 +1,4 @@
-"""``python -m nsp.render strokes=PATH [brush=B] size=PX [canvas=COLOUR] out=PATH``: re-render a
+"""``python -m nsp.render strokes=PATH [brush=B] size=PX [background=COLOUR] out=PATH``: re-render a
 stroke file (nsp JSON, or a reference .npz with ``brush=``) as PNG, SVG or GIF."""
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from nsp.engine.memory import check_canvas, stroke_cover
 from nsp.io.export import EXTENSIONS, GIF_FRAMES, write_painting
 from nsp.io.strokes import load_strokes
 
-TEXT = ("strokes", "out", "canvas")  # free text: paths, ``#rrggbb``
+TEXT = ("strokes", "out", "background")  # free text: paths, ``#rrggbb``
 
 
 @dataclass
@@ -27,7 +27,7 @@ class RenderConfig:
     strokes: str = MISSING
     out: str = MISSING
     size: int = 512
-    canvas: Optional[str] = None  # None: the stroke file's own background
+    background: Optional[str] = None  # None: the stroke file's own background
     brush: Optional[BrushConfig] = None  # needed for reference .npz files only
 
 
@@ -47,7 +47,7 @@ def render(cfg: DictConfig) -> Path:
         raise ValueError(f"size={cfg.size}: expected a positive number of pixels")
     name = cfg.brush.name if cfg.get("brush") else None  # reference .npz files only
     painting = load_strokes(cfg.strokes, brush=name, size=cfg.size)
-    background = cfg.canvas if cfg.canvas is not None else painting.background
+    background = cfg.background if cfg.background is not None else painting.background
     parse_color(background)
     height, width = painting.size(cfg.size)
     brush = painting.spec()

@@ -21,7 +21,7 @@ def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
         return _NAMED[text]
     if re.fullmatch(r"#[0-9a-f]{6}", text):
         return tuple(int(text[i : i + 2], 16) / 255 for i in (1, 3, 5))
-    raise ValueError(f"canvas={value} is not a colour; expected black, white or #rrggbb")
+    raise ValueError(f"background={value} is not a colour; expected black, white or #rrggbb")
 
 
 def paint_canvas(

@@ -39,7 +39,7 @@ def setup(cfg: DictConfig) -> tuple[Brush, object, PaintLoss, Tensor]:
         renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
     else:
         renderer = load_neural(cfg.renderer.checkpoint, brush)
-    background = parse_color(cfg.canvas)
+    background = parse_color(cfg.background)
     loss = PaintLoss.from_config(cfg.loss, background)
     return brush, renderer, loss, torch.tensor(background)
 
@@ -250,7 +250,7 @@ def digits(cfg: DictConfig, count: int = 50, steps: int = 300, length: float = 0
 
     def engine(x: Tensor) -> Tensor:
         with torch.no_grad():
-            return torch.stack([paint_canvas(brush, s, side, side, cfg.canvas) for s in x.view(count, k, -1)])
+            return torch.stack([paint_canvas(brush, s, side, side, cfg.background) for s in x.view(count, k, -1)])
 
     def ink_iou(painted: Tensor) -> Tensor:
         inked = (painted - blank).abs().mean(1) / (1 - 2 * background).abs().mean().clamp_min(1e-3) > 0.5

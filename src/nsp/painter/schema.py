@@ -71,7 +71,7 @@ class PaintConfig:
     image: str = "astronaut"  # a PNG/JPEG path, or a built-in photo (see nsp.painter.images.BUILTIN)
     brush: BrushConfig = MISSING
     strokes: int = 500
-    canvas: str = "white"  # black, white or #rrggbb
+    background: str = "white"  # the canvas colour: black, white or #rrggbb
     render_size: int = 1024  # long side of final.png and painting.svg
     work_size: int = 256  # long side of the canvas the strokes are optimized on
     animation_size: int = 256  # long side of animation.gif

@@ -18,7 +18,7 @@ from nsp.renderers.unet import UNet
 
 
 def build(config: Mapping[str, Any], brush: str) -> nn.Module:
-    """The renderer a ``renderer`` config node describes (``_target_``, ``size``, ``width``, …) for ``brush``.
+    """The renderer a ``renderer`` config node describes (``_target_``, ``size``, ``channel_mult``, …) for ``brush``.
 
     ``name`` (the config's own label) is not an argument of the network.
     """

@@ -12,9 +12,9 @@ def check_size(size: int) -> None:
         raise ValueError(f"renderer size must be one of {', '.join(map(str, SIZES))}, got {size}")
 
 
-def channels(base: int, width: float) -> int:
-    """``base`` channels (the paper's count) scaled by the width multiplier, at least one."""
-    return max(1, round(base * width))
+def channels(base: int, channel_mult: float) -> int:
+    """``base`` channels (the paper's count) scaled by the channel multiplier, at least one."""
+    return max(1, round(base * channel_mult))
 
 
 def centred(x: Tensor) -> Tensor:

@@ -30,12 +30,12 @@ class DualPathway(nn.Module):
     Args:
         brush: brush name; gives d and which parameters are shape and transparency.
         size: output side S (32, 64 or 128).
-        width: channel-width multiplier (1 = the paper's layers).
+        channel_mult: channel multiplier (1 = the paper's layers).
         pathways: both (the paper's renderer), or one alone (the ablations ``dual_raster``,
             ``dual_shading``), which then sees all parameters and draws colour and silhouette itself.
     """
 
-    def __init__(self, brush: str, size: int = 128, width: float = 1.0, pathways: Sequence[str] = PATHWAYS):
+    def __init__(self, brush: str, size: int = 128, channel_mult: float = 1.0, pathways: Sequence[str] = PATHWAYS):
         super().__init__()
         pathways = tuple(pathways)
         if not pathways or not set(pathways) <= set(PATHWAYS):
@@ -46,12 +46,12 @@ class DualPathway(nn.Module):
         self.alpha_index = spec.alpha
         self.rasterization = self.shading = None
         if len(set(pathways)) == 2:
-            self.rasterization = RasterizationNetwork(len(spec.shape), 2, size, width)
-            self.shading = ShadingNetwork(spec.d, 3, size, width)
+            self.rasterization = RasterizationNetwork(len(spec.shape), 2, size, channel_mult)
+            self.shading = ShadingNetwork(spec.d, 3, size, channel_mult)
         elif pathways[0] == "rasterization":
-            self.rasterization = RasterizationNetwork(spec.d, 5, size, width)
+            self.rasterization = RasterizationNetwork(spec.d, 5, size, channel_mult)
         else:
-            self.shading = ShadingNetwork(spec.d, 5, size, width)
+            self.shading = ShadingNetwork(spec.d, 5, size, channel_mult)
 
     def maps(self, x: Tensor) -> tuple[Tensor, Tensor, Tensor]:
         """Colour (B, 3, S, S), support (B, 1, S, S) and coverage (B, 1, S, S), all in [0, 1]."""

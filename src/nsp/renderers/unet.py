@@ -1,7 +1,7 @@
 """UNet (pix2pix-style) on the stroke vector tiled to a d×S×S image.
 
 The encoder halves the resolution with 4×4 convolutions down to 1×1 (64, 128, 256, 512, 512, …
-channels at width 1); the decoder mirrors it with transposed convolutions and skip connections.
+channels at channel_mult 1); the decoder mirrors it with transposed convolutions and skip connections.
 """
 from __future__ import annotations
 
@@ -17,12 +17,12 @@ from nsp.renderers.common import centred, channels, check_size
 class UNet(nn.Module):
     """UNet renderer: ``(B, d) -> (B, 3, S, S), (B, 1, S, S)``, both in [0, 1]."""
 
-    def __init__(self, brush: str, size: int = 128, width: float = 1.0):
+    def __init__(self, brush: str, size: int = 128, channel_mult: float = 1.0):
         super().__init__()
         check_size(size)
         self.size = size
         depth = int(math.log2(size))  # halvings from S×S to 1×1
-        widths = [channels(64 * min(2**i, 8), width) for i in range(depth)]
+        widths = [channels(64 * min(2**i, 8), channel_mult) for i in range(depth)]
 
         self.down = nn.ModuleList()
         for i, (c_in, c_out) in enumerate(zip([get_brush(brush).d, *widths], widths)):

@@ -133,7 +133,7 @@ def _finish(trainer: L.Trainer, logger: TensorBoardLogger, cfg: DictConfig, scor
     }
     if trainer.is_global_zero:
         hparams = {
-            "renderer": cfg.renderer.name, "brush": cfg.brush.name, "size": cfg.model.size, "width": cfg.model.width,
+            "renderer": cfg.renderer.name, "brush": cfg.brush.name, "size": cfg.model.size, "channel_mult": cfg.model.channel_mult,
             "batch_size": cfg.data.batch_size, "lr": cfg.model.optimizer.get("lr"), "seed": cfg.seed,
         }
         logger.log_hyperparams(hparams, {"final/" + k.replace("/", "_"): metrics[k] for k in METRICS if k in metrics})

@@ -21,7 +21,7 @@ class RendererModule(L.LightningModule):
     on the validation strokes during training and on the test strokes once at the end.
 
     Args:
-        renderer: the ``renderer`` config node as a plain dict (``_target_``, ``size``, ``width``, …);
+        renderer: the ``renderer`` config node as a plain dict (``_target_``, ``size``, ``channel_mult``, …);
             saved in the checkpoint with ``brush`` so :func:`nsp.training.load_renderer` rebuilds it.
         brush: brush name.
         optimizer: ``params -> Optimizer`` (a Hydra ``_partial_``).

@@ -26,7 +26,7 @@ class RendererConfig:
     _target_: str = MISSING
     name: str = MISSING  # the ``renderer`` group choice: keys ``lr_by_renderer`` and names the run in its metrics
     size: int = "${model.size}"  # type: ignore[assignment]
-    width: float = "${model.width}"  # type: ignore[assignment]
+    channel_mult: float = "${model.channel_mult}"  # type: ignore[assignment]
 
 
 @dataclass
@@ -54,7 +54,7 @@ Interval = StrEnum("Interval", {"epoch": "epoch", "step": "step"})  # Hydra reje
 @dataclass
 class ModelConfig:
     size: int = 128  # output side S: 32, 64 or 128
-    width: float = 1.0  # channel-width multiplier; 1 = the paper's layers
+    channel_mult: float = 1.0  # channel multiplier; 1 = the paper's layers
     optimizer: Any = field(
         default_factory=lambda: {
             "_target_": "torch.optim.Adam",
@@ -163,8 +163,8 @@ def check(cfg: Any) -> None:
         raise ValueError(f"data.epoch_size={data.epoch_size} is less than one batch (data.batch_size={data.batch_size})")
     if data.num_workers < 0:
         raise ValueError(f"data.num_workers={data.num_workers}: expected 0 (render in the training process) or more")
-    if model.width <= 0:
-        raise ValueError(f"model.width={model.width}: expected a positive channel-width multiplier (1 = the paper's)")
+    if model.channel_mult <= 0:
+        raise ValueError(f"model.channel_mult={model.channel_mult}: expected a positive channel-width multiplier (1 = the paper's)")
     if cfg.renderer.size != model.size:
         raise ValueError(f"renderer.size={cfg.renderer.size} differs from model.size={model.size}: set model.size, "
                          f"the renderer and the training strokes follow it")
