@@ -135,7 +135,7 @@ def test_paint_canvas_keeps_the_aspect_ratio_and_background(generator):
 
 
 def test_closest_point_on_a_bezier_matches_dense_sampling(generator):
-    from nsp.engine.geometry import bezier_nearest
+    from nsp.brushes.geometry import bezier_nearest
 
     pts = torch.rand(64, 3, 2, generator=generator) * 100
     pts[:8, 1] = (pts[:8, 0] + pts[:8, 2]) / 2  # straight strokes too

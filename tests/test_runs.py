@@ -21,7 +21,8 @@ from test_training import compose_train
 from nsp.cli import INTERRUPTED, RunDirs, quote_text
 from nsp.io.strokes import load_strokes
 from nsp.painter.schema import PaintConfig  # noqa: F401  (registers ``paint_schema``)
-from nsp.training import check_checkpoint, train
+from nsp.renderers.checkpoint import check_checkpoint
+from nsp.training import train
 
 ROOT = Path(__file__).parents[1]
 TINY_PAINT = ["strokes=8", "work_size=48", "render_size=64", "animation_size=32", "progress=false"]

@@ -14,7 +14,8 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 from nsp.brushes import get_brush
 from nsp.engine import render
-from nsp.training import RendererModule, SaveOnInterrupt, StrokeData, load_renderer, train
+from nsp.renderers.checkpoint import load_renderer
+from nsp.training import RendererModule, SaveOnInterrupt, StrokeData, train
 from nsp.training.data import EpochSampler, RandomStrokes
 from nsp.training.schema import register_configs
 

@@ -5,7 +5,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Pixels
-from nsp.engine.geometry import bezier_polyline, project_polyline, segments_for, to_pixels
+from nsp.brushes.geometry import bezier_polyline, project_polyline, segments_for, to_pixels
 
 
 def control_points(x: Tensor, width: int, height: int) -> Tensor:

@@ -7,7 +7,7 @@ from torch import Tensor
 
 from nsp.brushes import bezier
 from nsp.brushes.base import Brush, Pixels
-from nsp.engine.geometry import bezier_nearest
+from nsp.brushes.geometry import bezier_nearest
 
 _SQRT2 = 1.4143  # the square tip's corners reach √2·d from the trajectory's ends
 

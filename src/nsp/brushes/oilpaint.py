@@ -11,7 +11,7 @@ from torch import Tensor
 from nsp.brushes.base import Brush, Pixels
 from nsp.brushes.tape import rectangle, rectangle_extent
 from nsp.brushes.texture import bristle_texture, load_texture
-from nsp.engine.geometry import box
+from nsp.brushes.geometry import box
 
 _OPAQUE = 0.4  # texture values above this are fully covered with paint
 

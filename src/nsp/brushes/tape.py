@@ -7,7 +7,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush, Pixels
-from nsp.engine.geometry import box, rotated_frame, to_pixels
+from nsp.brushes.geometry import box, rotated_frame, to_pixels
 
 
 def rectangle(x: Tensor, pix: Pixels) -> tuple[Tensor, Tensor, Tensor, Tensor]:

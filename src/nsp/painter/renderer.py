@@ -12,6 +12,7 @@ from torch import Tensor, nn
 
 from nsp.brushes import Brush
 from nsp.engine import render
+from nsp.renderers.checkpoint import load_renderer
 
 
 class AnalyticRenderer:
@@ -51,8 +52,6 @@ class NeuralRenderer:
 def load_neural(path: str | Path, brush: Brush) -> NeuralRenderer:
     """The renderer in an ``nsp.train`` checkpoint; ``ValueError`` naming the problem if the file is
     not one or was trained for another brush."""
-    from nsp.training import load_renderer  # imports Lightning: only for this renderer
-
     network, trained_for, size = load_renderer(path, map_location="cpu")
     if trained_for != brush.name:
         raise ValueError(

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from hydra.utils import instantiate
 from torch import nn
 
 from nsp.renderers.common import SIZES, check_size
@@ -17,14 +16,22 @@ from nsp.renderers.pxlshuffle import PxlShuffleNet, RasterizationNetwork
 from nsp.renderers.unet import UNet
 
 
+FAMILIES = {family.__name__: family for family in (DCGAN, DualPathway, PxlShuffleNet, UNet)}
+
+
 def build(config: Mapping[str, Any], brush: str) -> nn.Module:
     """The renderer a ``renderer`` config node describes (``_target_``, ``size``, ``channel_mult``, …) for ``brush``.
 
-    ``name`` (the config's own label) is not an argument of the network.
+    ``_target_`` names the family (``nsp.renderers.DualPathway``); ``name`` (the config's own label)
+    is not an argument of the network. Needs no Hydra, so checkpoints load anywhere.
     """
-    check_size(config["size"])  # before instantiate, which would wrap the error in its own
-    arguments = {key: value for key, value in config.items() if key != "name"}
-    return instantiate(arguments, brush=brush, _convert_="all")
+    check_size(config["size"])
+    family = str(config["_target_"]).rsplit(".", 1)[-1]
+    if family not in FAMILIES:
+        raise ValueError(f"renderer _target_={config['_target_']}: expected one of "
+                         + ", ".join(f"nsp.renderers.{name}" for name in FAMILIES))
+    arguments = {key: value for key, value in config.items() if key not in ("_target_", "name")}
+    return FAMILIES[family](brush=brush, **arguments)
 
 
-__all__ = ["DCGAN", "SIZES", "DualPathway", "PxlShuffleNet", "RasterizationNetwork", "ShadingNetwork", "UNet", "build"]
+__all__ = ["DCGAN", "FAMILIES", "SIZES", "DualPathway", "PxlShuffleNet", "RasterizationNetwork", "ShadingNetwork", "UNet", "build"]

@@ -22,7 +22,7 @@ class RendererModule(L.LightningModule):
 
     Args:
         renderer: the ``renderer`` config node as a plain dict (``_target_``, ``size``, ``channel_mult``, …);
-            saved in the checkpoint with ``brush`` so :func:`nsp.training.load_renderer` rebuilds it.
+            saved in the checkpoint with ``brush`` so :func:`nsp.renderers.checkpoint.load_renderer` rebuilds it.
         brush: brush name.
         optimizer: ``params -> Optimizer`` (a Hydra ``_partial_``).
         scheduler: ``optimizer -> LRScheduler``, or None for a constant rate.
