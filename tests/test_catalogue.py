@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import torch
 
+from nsp.brushes import BRUSHES
 from nsp.io.strokes import StrokeFile, save_strokes
 
 RESULTS = ("final.png", "strokes.json", "painting.svg", "animation.gif", "metrics.json", "checkpoints", "out.png")
@@ -124,7 +125,7 @@ def files(tmp_path_factory) -> dict[str, str]:
     (tmp / "cut.ckpt").write_bytes(ckpt.read_bytes()[:2000])
     (tmp / "noise.ckpt").write_bytes(np.random.default_rng(0).bytes(4000))
     painting = tmp / "painting.json"
-    save_strokes(painting, StrokeFile("tape", torch.rand(3, 8, generator=torch.Generator().manual_seed(0)), 64, 48))
+    save_strokes(painting, StrokeFile(BRUSHES["tape"], torch.rand(3, 8, generator=torch.Generator().manual_seed(0)), 48, 64))
     data = json.loads(painting.read_text())
     data["strokes"][1]["x"] = float("nan")
     (tmp / "nan.json").write_text(json.dumps(data))

@@ -14,6 +14,7 @@ from hydra.errors import ConfigCompositionException
 from omegaconf import OmegaConf
 from PIL import Image, ImageSequence
 
+from nsp.brushes import BRUSHES
 from nsp.io.strokes import load_strokes
 from nsp.paint import BadInput, paint
 
@@ -44,7 +45,7 @@ def test_a_painting_leaves_every_file_valid(photo, tmp_path):
 
     assert Image.open(out / "final.png").size == (96, 64)  # long side render_size, the photo's 3:2 kept
     painting = load_strokes(out / "strokes.json")
-    assert (painting.brush, len(painting.strokes), painting.width, painting.height) == ("watercolor", 12, 96, 64)
+    assert (painting.brush.name, len(painting.strokes), painting.width, painting.height) == ("watercolor", 12, 96, 64)
     assert ET.parse(out / "painting.svg").getroot().get("width") == "96"
     with Image.open(out / "animation.gif") as gif:
         assert gif.n_frames > 2 and gif.size == (48, 32)
@@ -166,7 +167,7 @@ def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_tha
         paint(config(f"image={photo}", f"output_dir={out}", "background='#204060'", *TINY))
     assert len(load_strokes(out / "strokes.json").strokes) == 0
     again = render(OmegaConf.create({"strokes": str(out / "strokes.json"), "out": str(tmp_path / "again.png"), "size": 30,
-                                     "canvas": None, "brush": None}))
+                                     "background": None, "brush": None}))
     pixels = np.asarray(Image.open(again))
     assert pixels.shape == (20, 30, 3) and (pixels == (0x20, 0x40, 0x60)).all()
 
@@ -184,15 +185,14 @@ def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_str
     tiny = [o for o in TINY if not o.startswith("animation_frames")]  # the animation as nsp.render draws one
     paint(config(f"image={photo}", f"output_dir={out}", f"brush.texture={texture}", *tiny))
     painting = load_strokes(out / "strokes.json")
-    assert painting.texture == str(texture)
+    assert painting.brush.texture_path == str(texture)
     for name, size in (("final.png", 96), ("painting.svg", 96), ("animation.gif", 48)):
         again = render(OmegaConf.create({"strokes": str(out / "strokes.json"), "out": str(tmp_path / name),
-                                         "size": size, "canvas": None, "brush": None}))
+                                         "size": size, "background": None, "brush": None}))
         if name.endswith(".svg"):
             assert again.read_text() == (out / name).read_text()
         else:
             drawn, painted = frames(again), frames(out / name)
             assert len(drawn) == len(painted) and all((a == b).all() for a, b in zip(drawn, painted))
-    painting.texture = None  # the same strokes with nsp's own texture: another SVG
-    write_svg(tmp_path / "own.svg", painting.spec(), painting.strokes, 96, 64)
+    write_svg(tmp_path / "own.svg", BRUSHES["oilpaint"], painting.strokes, 64, 96)  # nsp's own texture: another SVG
     assert (tmp_path / "own.svg").read_text() != (out / "painting.svg").read_text()

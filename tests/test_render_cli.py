@@ -30,7 +30,7 @@ def painting(tmp_path, generator):
         x = brush.sample(n, generator)
         x[:, [i for i, k in enumerate(brush.kinds) if k == "size"]] *= 0.4
         path = tmp_path / f"{name}.json"
-        save_strokes(path, StrokeFile(name, x, 120, 80, "#203040"))
+        save_strokes(path, StrokeFile(BRUSHES[name], x, 80, 120, "#203040"))
         return path
 
     return make
@@ -50,8 +50,8 @@ def test_svg_renders_like_the_png(name, painting, tmp_path):
     from nsp.io.export import write_painting
 
     p = load_strokes(painting(name))
-    write_painting(tmp_path / "a.png", p.spec(), p.strokes, 120, 80, p.background)
-    write_painting(tmp_path / "a.svg", p.spec(), p.strokes, 120, 80, p.background)
+    write_painting(tmp_path / "a.png", p.brush, p.strokes, 80, 120, p.background)
+    write_painting(tmp_path / "a.svg", p.brush, p.strokes, 80, 120, p.background)
     drawn = np.asarray(Image.open(io.BytesIO(bytes(resvg.svg_to_bytes(svg_path=str(tmp_path / "a.svg"))))).convert("RGB"))
     assert drawn.shape == (80, 120, 3)
     assert psnr(drawn.astype(np.float64), read(tmp_path / "a.png")) > 24
@@ -128,7 +128,7 @@ def test_non_finite_json_strokes_are_refused(painting, tmp_path):
 @pytest.mark.parametrize("extension", [".png", ".svg", ".gif"])
 def test_an_empty_painting_renders_its_canvas(extension, tmp_path):
     # What a painting interrupted before its first stroke leaves.
-    save_strokes(tmp_path / "e.json", StrokeFile("watercolor", torch.zeros(0, 15), 120, 80, "#203040"))
+    save_strokes(tmp_path / "e.json", StrokeFile(BRUSHES["watercolor"], torch.zeros(0, 15), 80, 120, "#203040"))
     result = run(f"strokes={tmp_path / 'e.json'}", "size=90", f"out={tmp_path / ('e' + extension)}")
     assert result.returncode == 0, result.stderr
     if extension == ".svg":

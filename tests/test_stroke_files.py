@@ -6,16 +6,17 @@ import pytest
 import torch
 
 from nsp.brushes import BRUSHES
-from nsp.engine import render
+from nsp.engine import paint_canvas, render
+from nsp.io.export import write_svg
 from nsp.io.strokes import StrokeFile, StrokeFileError, load_strokes, save_strokes
 
 
 @pytest.mark.parametrize("name", list(BRUSHES))
 def test_json_round_trip_is_exact(name, tmp_path, generator):
-    painting = StrokeFile(name, BRUSHES[name].sample(20, generator), 640, 480, "#102030")
+    painting = StrokeFile(BRUSHES[name], BRUSHES[name].sample(20, generator), 480, 640, "#102030")
     save_strokes(tmp_path / "p.json", painting)
     back = load_strokes(tmp_path / "p.json")
-    assert back.brush == name and (back.width, back.height, back.background) == (640, 480, "#102030")
+    assert back.brush is BRUSHES[name] and (back.height, back.width, back.background) == (480, 640, "#102030")
     assert torch.equal(back.strokes, painting.strokes)
     data = json.loads((tmp_path / "p.json").read_text())
     assert data["version"] == 1 and data["canvas"]["aspect"] == pytest.approx(4 / 3)
@@ -23,14 +24,14 @@ def test_json_round_trip_is_exact(name, tmp_path, generator):
 
 
 def test_an_empty_painting_round_trips(tmp_path):
-    save_strokes(tmp_path / "e.json", StrokeFile("oilpaint", torch.zeros(0, 11)))
+    save_strokes(tmp_path / "e.json", StrokeFile(BRUSHES["oilpaint"], torch.zeros(0, 11)))
     assert load_strokes(tmp_path / "e.json").strokes.shape == (0, 11)
     path = npz(tmp_path / "e.npz", np.zeros((0, 5)), np.zeros((0, 6)), np.zeros((0, 1)))
     assert load_strokes(path, brush="oilpaint").strokes.shape == (0, 11)
 
 
 def test_size_keeps_the_aspect_ratio():
-    assert StrokeFile("tape", torch.zeros(0, 8), 640, 480).size(1024) == (768, 1024)
+    assert StrokeFile(BRUSHES["tape"], torch.zeros(0, 8), 480, 640).size(1024) == (768, 1024)
 
 
 def npz(path, ctt, color, alpha):
@@ -59,16 +60,33 @@ def test_reference_markerpen_drops_its_unused_second_radius(tmp_path):
     assert torch.allclose(x[7:], torch.tensor([0.0, 1, 0, 1]))
 
 
-def test_reference_rectangle_is_tape_with_half_extents(tmp_path):
+def test_reference_rectangle_is_tape_with_half_extents_and_its_alpha(tmp_path):
     path = npz(tmp_path / "t.npz", [[0.5, 0.5, 0.5, 0.25, 0.0]], [[0.2, 0.4, 0.6]], [[0.3]])
     painting = load_strokes(path, brush="tape", size=128)
-    _, alpha = render(BRUSHES["tape"], painting.strokes, 128)
-    cols = (alpha[0, 0] > 0.5).sum(0).nonzero().flatten()
-    rows = (alpha[0, 0] > 0.5).sum(1).nonzero().flatten()
-    # Half extents 1 + w·W/4 = 17 px and 1 + h·W/4 = 9 px around pixel 63.5 (alpha ignored: opaque).
+    assert painting.brush.params[-1] == "A" and painting.strokes[0, -1] == pytest.approx(0.3)
+    fg, alpha = render(painting.brush, painting.strokes, 128)
+    cols = (alpha[0, 0] > 0.15).sum(0).nonzero().flatten()
+    rows = (alpha[0, 0] > 0.15).sum(1).nonzero().flatten()
+    # Half extents 1 + w·W/4 = 17 px and 1 + h·W/4 = 9 px around pixel 63.5.
     assert cols.max() - cols.min() + 1 == pytest.approx(34, abs=1)
     assert rows.max() - rows.min() + 1 == pytest.approx(18, abs=1)
-    assert alpha.max() == 1
+    # The reference blends its rectangles with their alpha: on white, 0.3·colour + 0.7·white.
+    canvas = paint_canvas(painting.brush, painting.strokes, 128, 128, "white")
+    assert torch.allclose(canvas[:, 64, 64], 0.3 * torch.tensor([0.2, 0.4, 0.6]) + 0.7, atol=1e-5)
+
+
+def test_opaque_reference_rectangles_are_nsp_tape(tmp_path):
+    path = npz(tmp_path / "t.npz", [[0.5, 0.5, 0.5, 0.25, 0.0]], [[0.2, 0.4, 0.6]], [[1.0]])
+    assert load_strokes(path, brush="tape", size=128).brush is BRUSHES["tape"]
+
+
+def test_translucent_tape_round_trips_through_json_png_and_svg(tmp_path):
+    painting = load_strokes(npz(tmp_path / "t.npz", [[0.5, 0.5, 0.5, 0.25, 0.3]], [[1, 0, 0]], [[0.4]]), brush="tape")
+    save_strokes(tmp_path / "t.json", painting)
+    back = load_strokes(tmp_path / "t.json")
+    assert back.brush is painting.brush and torch.equal(back.strokes, painting.strokes)
+    write_svg(tmp_path / "t.svg", back.brush, back.strokes, 64, 64)
+    assert 'opacity="0.4000"' in (tmp_path / "t.svg").read_text()
 
 
 def test_reference_oil_sizes(tmp_path):
@@ -105,7 +123,7 @@ def test_malformed_files_name_the_problem(tmp_path, content, match):
 
 
 def test_out_of_range_parameters_are_refused(tmp_path, generator):
-    painting = StrokeFile("tape", BRUSHES["tape"].sample(2, generator))
+    painting = StrokeFile(BRUSHES["tape"], BRUSHES["tape"].sample(2, generator))
     painting.strokes[1, 3] = 1.25
     save_strokes(tmp_path / "p.json", painting)
     with pytest.raises(StrokeFileError, match=r"p.json: 1 of 2 strokes .* in \[0, 1\], got 1.25 \(h of stroke 1\)"):

@@ -50,7 +50,7 @@ def render(cfg: DictConfig) -> Path:
     background = cfg.background if cfg.background is not None else painting.background
     parse_color(background)
     height, width = painting.size(cfg.size)
-    brush = painting.spec()
+    brush = painting.brush
     if suffix != ".svg":  # an SVG holds no pixels
         cover = stroke_cover(brush, painting.strokes, height, width)
         check_canvas(height, width, "size", cover, frames=GIF_FRAMES + 1 if suffix == ".gif" else 0)
@@ -59,7 +59,7 @@ def render(cfg: DictConfig) -> Path:
     except OSError as err:
         raise ValueError(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
     try:
-        write_painting(out, brush, painting.strokes, width, height, background)
+        write_painting(out, brush, painting.strokes, height, width, background)
     except OSError as err:
         raise ValueError(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out

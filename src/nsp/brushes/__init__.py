@@ -6,18 +6,20 @@ import dataclasses
 from nsp.brushes.base import Brush, Pixels
 from nsp.brushes.markerpen import MARKERPEN
 from nsp.brushes.oilpaint import OILPAINT
-from nsp.brushes.tape import TAPE
+from nsp.brushes.tape import TAPE, TRANSLUCENT_TAPE
 from nsp.brushes.texture import load_texture
 from nsp.brushes.watercolor import WATERCOLOR
 
 BRUSHES: dict[str, Brush] = {b.name: b for b in (OILPAINT, WATERCOLOR, MARKERPEN, TAPE)}
+VARIANTS = (TRANSLUCENT_TAPE,)  # brushes of the same name with other parameters, met in stroke files
 
 
-def get_brush(name: str, texture: str | None = None) -> Brush:
-    """The brush called ``name``; ``texture`` is a grayscale image path for ``oilpaint``."""
+def get_brush(name: str, texture: str | None = None, params: list[str] | None = None) -> Brush:
+    """The brush called ``name``; ``texture`` is a grayscale image path for ``oilpaint``; ``params``,
+    the parameter names a stroke file lists, pick a variant that has exactly those."""
     if name not in BRUSHES:
         raise ValueError(f"unknown brush '{name}', expected one of: {', '.join(BRUSHES)}")
-    brush = BRUSHES[name]
+    brush = next((b for b in VARIANTS if b.name == name and list(b.params) == params), BRUSHES[name])
     if texture is not None:
         if name != "oilpaint":
             raise ValueError(f"brush.texture applies to oilpaint only, not '{name}'")
@@ -26,4 +28,4 @@ def get_brush(name: str, texture: str | None = None) -> Brush:
     return brush
 
 
-__all__ = ["BRUSHES", "Brush", "Pixels", "get_brush"]
+__all__ = ["BRUSHES", "VARIANTS", "Brush", "Pixels", "get_brush"]

@@ -1,4 +1,5 @@
-"""A brush is data (its parameter spec) plus one rendering function (its signed distance and shading).
+"""A brush is data (its parameter spec) plus its rendering (signed distance and shading) and its
+formats (an SVG element per stroke, the reference implementation's stroke arrays).
 
 Every stroke parameter lies in [0, 1]. Coordinates: x to the right, y down; a position p lands on
 pixel p·(W−1) (x) or p·(H−1) (y); sizes are fractions of the canvas width W.
@@ -7,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
 import torch
 from torch import Tensor
 
@@ -20,8 +22,8 @@ class Pixels:
 
     px: Tensor
     py: Tensor
-    width: int
     height: int
+    width: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,6 +36,7 @@ class Brush:
         kinds: one of :data:`KINDS` per parameter.
         shape, color: indices of the shape and colour parameters.
         alpha: index of the transparency parameter, or ``None`` where A ≡ 1.
+        reference: columns of the reference implementation's ``x_ctt`` and ``x_color`` arrays.
     """
 
     name: str
@@ -45,6 +48,7 @@ class Brush:
     description: str = ""
     options: dict = field(default_factory=dict)
     texture_path: str | None = None  # the image of an oil brush's bristle texture; None: nsp's own
+    reference: tuple[int, int] = (0, 0)
 
     @property
     def d(self) -> int:
@@ -67,7 +71,7 @@ class Brush:
             raise ValueError(f"stroke parameters must lie in [0, 1], got {bad.flatten()[0].item():g}")
 
     # --- rendering: implemented by each brush -------------------------------------------------
-    def extent(self, x: Tensor, width: int, height: int) -> Tensor:
+    def extent(self, x: Tensor, height: int, width: int) -> Tensor:
         """Bounding boxes (P, 4) of strokes ``x`` (P, d) in pixels: x_min, y_min, x_max, y_max."""
         raise NotImplementedError
 
@@ -81,4 +85,20 @@ class Brush:
         ``coverage`` maps a signed distance in pixels (negative inside) to [0, 1]: a box filter for
         antialiased rendering, a sigmoid for the soft, differentiable mode.
         """
+        raise NotImplementedError
+
+    # --- formats: implemented by each brush ---------------------------------------------------
+    def svg_defs(self) -> list[str]:
+        """SVG definitions every stroke of this brush shares (e.g. a texture)."""
+        return []
+
+    def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
+        """(definitions, element) drawing stroke number ``index`` with parameters ``p`` (d,) on a
+        ``height``×``width`` canvas."""
+        raise NotImplementedError
+
+    def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple["Brush", np.ndarray]:
+        """Strokes in the reference implementation's convention (``x_ctt`` (N, c), ``x_color``
+        (N, k), ``x_alpha`` (N, 1), pixel sizes at canvas width ``width``) -> the brush that paints
+        them and their parameters (N, d) in [0, 1]."""
         raise NotImplementedError

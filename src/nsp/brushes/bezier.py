@@ -1,6 +1,7 @@
 """Shared geometry of the Bézier brushes (watercolor, markerpen)."""
 from __future__ import annotations
 
+import numpy as np
 import torch
 from torch import Tensor
 
@@ -8,9 +9,9 @@ from nsp.brushes.base import Pixels
 from nsp.brushes.geometry import bezier_polyline, project_polyline, segments_for, to_pixels
 
 
-def control_points(x: Tensor, width: int, height: int) -> Tensor:
+def control_points(x: Tensor, height: int, width: int) -> Tensor:
     """P0, P1, P2 of x[:, 0:6] = x0, y0, x1, y1, x2, y2 in pixels: (P, 3, 2)."""
-    return torch.stack(to_pixels(x[:, 0:6:2], x[:, 1:6:2], width, height), -1)
+    return torch.stack(to_pixels(x[:, 0:6:2], x[:, 1:6:2], height, width), -1)
 
 
 def point(pts: Tensor, t: Tensor) -> tuple[Tensor, Tensor]:
@@ -20,9 +21,9 @@ def point(pts: Tensor, t: Tensor) -> tuple[Tensor, Tensor]:
     return b[:, 0], b[:, 1]
 
 
-def extent(x: Tensor, reach: Tensor, width: int, height: int) -> Tensor:
+def extent(x: Tensor, reach: Tensor, height: int, width: int) -> Tensor:
     """Boxes (P, 4) around the control polygon (which holds the curve), grown by ``reach`` (P,) px."""
-    pts = control_points(x, width, height)
+    pts = control_points(x, height, width)
     return torch.cat([pts.amin(1) - reach[:, None], pts.amax(1) + reach[:, None]], 1)
 
 
@@ -31,9 +32,18 @@ def distance_bound(x: Tensor, pix: Pixels) -> Tensor:
 
     Uses the polyline through B(k/K); a quadratic leaves its chords by at most |P0 − 2P1 + P2|/(4K²).
     """
-    pts = control_points(x, pix.width, pix.height)
-    k = segments_for(pix.width, pix.height)
+    pts = control_points(x, pix.height, pix.width)
+    k = segments_for(pix.height, pix.width)
     along, perp, length, _ = project_polyline(bezier_polyline(pts[:, 0], pts[:, 1], pts[:, 2], k), pix.px, pix.py)
     excess = torch.maximum(-along, along - length).clamp(min=0)
     chord_error = (pts[:, 0] - 2 * pts[:, 1] + pts[:, 2]).norm(dim=1) / (4 * k * k)
     return torch.sqrt(perp**2 + excess**2 + 1e-8).amin(-1) - chord_error[:, None]
+
+
+def from_reference(ctt: np.ndarray, radii: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> np.ndarray:
+    """Reference Bézier strokes -> parameters (N, d): its control point P1 is relative,
+    x1' = x0 + (x2 − x0)·x1 (likewise y), and its radii ``radii`` (N, k) are 1 + r·W/4 pixels."""
+    x0, y0, x1, y1, x2, y2 = ctt[:, :6].T
+    shape = np.stack([x0, y0, x0 + (x2 - x0) * x1, y0 + (y2 - y0) * y1, x2, y2], 1)
+    sizes = (1 + radii * width / 4) / (width / 4)
+    return np.clip(np.concatenate([shape, sizes, color, alpha], 1), 0, 1)

@@ -9,8 +9,8 @@ from torch import Tensor
 _EPS = 1e-8
 
 
-def to_pixels(x: Tensor, y: Tensor, width: int, height: int) -> tuple[Tensor, Tensor]:
-    """Map positions in [0, 1] to pixel coordinates: p -> p·(W−1), p·(H−1)."""
+def to_pixels(x: Tensor, y: Tensor, height: int, width: int) -> tuple[Tensor, Tensor]:
+    """Map positions in [0, 1] to pixel coordinates: p -> p·(W−1), p·(H−1); sizes (height, width), as everywhere in nsp."""
     return x * (width - 1), y * (height - 1)
 
 
@@ -42,9 +42,9 @@ def bezier_polyline(p0: Tensor, p1: Tensor, p2: Tensor, segments: int) -> Tensor
     return (1 - t) ** 2 * p0[:, None] + 2 * (1 - t) * t * p1[:, None] + t**2 * p2[:, None]
 
 
-def segments_for(width: int, height: int) -> int:
+def segments_for(height: int, width: int) -> int:
     """Polyline segments for a Bézier at this resolution: chord error stays below about a pixel."""
-    return int(min(32, max(8, math.ceil(math.sqrt(max(width, height)) / 1.4))))
+    return int(min(32, max(8, math.ceil(math.sqrt(max(height, width)) / 1.4))))
 
 
 def project_polyline(points: Tensor, px: Tensor, py: Tensor) -> tuple[Tensor, Tensor, Tensor, Tensor]:
@@ -69,8 +69,9 @@ def _cbrt(v: Tensor) -> Tensor:
     return v.sign() * v.abs().pow(1 / 3)
 
 
-def _distance_minima(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor) -> tuple[Tensor, Tensor]:
-    """The (up to two) local minima t ∈ [0, 1] of |B(t) − p| for B(t) = P0 + 2t·a + t²·b: (P, N) each.
+def _distance_minima(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor) -> tuple[Tensor, Tensor, Tensor]:
+    """The (up to two) local minima t ∈ [0, 1] of |B(t) − p| for B(t) = P0 + 2t·a + t²·b, the later
+    first, and the maximum between them (the minimum where there is one): (P, N) each.
 
     Setting d|B(t) − p|²/dt = 0 gives the cubic (b·b)t³ + 3(a·b)t² + (2a·a + m·b)t + m·a = 0 with
     m = P0 − p; it is solved in closed form (Cardano where it has one real root, returned twice, or
@@ -96,9 +97,10 @@ def _distance_minima(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor) -
     smallest = 2 * z * torch.cos(phi - 4 * math.pi / 3) - kx
     chord = 2 * a + b  # P2 − P0
     along = (-(mx * chord[:, :1] + my * chord[:, 1:]) / (chord * chord).sum(1, keepdim=True).clamp(min=1e-12))
+    middle = 2 * z * torch.cos(phi - 2 * math.pi / 3) - kx
     t1 = torch.where(straight, along, torch.where(h >= 0, one, largest)).clamp(0, 1)
     t2 = torch.where(straight, along, torch.where(h >= 0, one, smallest)).clamp(0, 1)
-    return t1, t2
+    return t1, t2, torch.where(straight | (h >= 0), t1, middle.clamp(0, 1))
 
 
 def _reach(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper) -> Tensor:
@@ -146,11 +148,53 @@ def bezier_nearest(
     the implicit-function gradient dt/dθ = −(∂φ'/∂θ) / φ''.
     p0, p1, p2: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None.
     """
+    return _nearest(p0, p1, p2, px, py, taper, samples)[0]
+
+
+def swept_discs(
+    p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor, samples: int = 12
+) -> tuple[Tensor, Tensor]:
+    """Discs of a linearly growing radius (``taper`` = r2 − r0, (P,) pixels) swept along B, drawn in
+    order of t: per pixel, the t of the disc reaching furthest towards it (as :func:`bezier_nearest`)
+    and the t of the later pass, each (P, N).
+
+    Where the curve passes a pixel twice (a stroke curling over itself: two distance minima), the
+    later pass's discs are drawn on top, so where they cover the pixel their colour shows; elsewhere
+    the two t agree. Both carry gradients (safeguarded Newton steps on φ, as :func:`bezier_nearest`).
+    """
+    t, (t_last, t_first, between) = _nearest(p0, p1, p2, px, py, taper, samples)
+    a, b = p1 - p0, p0 - 2 * p1 + p2
+    later = _stationary(t_last, p0, a, b, px, py)
+    # Two passes count as two once the distance rises by a pixel between them; as they merge, the
+    # later one's weight goes smoothly to zero, so the colour has no seam there.
+    distance = [_reach(u, p0, a, b, px, py, None) for u in (between, t_last, t_first)]  # stationary in t
+    apart = (distance[0] - torch.maximum(distance[1], distance[2])).clamp(0, 1)
+    return t, t + apart * (later - t)
+
+
+def _stationary(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor) -> Tensor:
+    """t (P, N), a local minimum of |B(t) − p| found without gradient, with the implicit-function
+    gradient dt/dθ = −(∂g/∂θ) / g' of its condition g = (B(t) − p)·B'(t) = 0; an end (t = 0 or 1)
+    stays put."""
+    qx = p0[:, :1] + t * (2 * a[:, :1] + t * b[:, :1]) - px
+    qy = p0[:, 1:] + t * (2 * a[:, 1:] + t * b[:, 1:]) - py
+    dx, dy = 2 * (a[:, :1] + t * b[:, :1]), 2 * (a[:, 1:] + t * b[:, 1:])  # B'(t)
+    g = qx * dx + qy * dy
+    slope = (dx * dx + dy * dy + 2 * (qx * b[:, :1] + qy * b[:, 1:])).detach()  # g'(t) > 0 at a minimum
+    inside = ((t > 0) & (t < 1)).to(t.dtype)
+    step = inside * g / slope.clamp(min=1e-6)
+    return t - (step - step.detach())
+
+
+def _nearest(
+    p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None, samples: int
+) -> tuple[Tensor, tuple[Tensor, Tensor, Tensor]]:
+    """:func:`bezier_nearest`'s t (P, N), and :func:`_distance_minima` (no gradient)."""
     a, b = p1 - p0, p0 - 2 * p1 + p2
     with torch.no_grad():
         p0_, a_, b_ = p0.detach(), a.detach(), b.detach()
         taper_ = None if taper is None else taper.detach()
-        t1, t2 = _distance_minima(p0_, a_, b_, px, py)
+        t1, t2, between = _distance_minima(p0_, a_, b_, px, py)
         column = None if taper_ is None else taper_[:, None]
         reach1, reach2 = _reach(t1, p0_, a_, b_, px, py, column), _reach(t2, p0_, a_, b_, px, py, column)
         t, reach = torch.where(reach1 <= reach2, t1, t2), torch.minimum(reach1, reach2)
@@ -159,4 +203,4 @@ def bezier_nearest(
             sampled = _reach(at, p0_, a_, b_, px, py, column)
             t, reach = torch.where(sampled < reach, at, t), torch.minimum(sampled, reach)
         t = _newton_step(t, p0_, a_, b_, px, py, taper_)
-    return _newton_step(t, p0, a, b, px, py, taper)
+    return _newton_step(t, p0, a, b, px, py, taper), (t1, t2, between)

@@ -2,25 +2,27 @@
 pen tip that follows the curve, with uniform transparency A."""
 from __future__ import annotations
 
+import numpy as np
 import torch
 from torch import Tensor
 
 from nsp.brushes import bezier
 from nsp.brushes.base import Brush, Pixels
 from nsp.brushes.geometry import bezier_nearest
+from nsp.brushes.svg import bezier_points, hex_color
 
 _SQRT2 = 1.4143  # the square tip's corners reach √2·d from the trajectory's ends
 
 
 class MarkerPen(Brush):
-    def extent(self, x: Tensor, width: int, height: int) -> Tensor:
-        return bezier.extent(x, _SQRT2 * x[:, 6] * width / 4, width, height)
+    def extent(self, x: Tensor, height: int, width: int) -> Tensor:
+        return bezier.extent(x, _SQRT2 * x[:, 6] * width / 4, height, width)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
         return bezier.distance_bound(x, pix) - _SQRT2 * x[:, 6:7] * pix.width / 4
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
-        pts = bezier.control_points(x, pix.width, pix.height)
+        pts = bezier.control_points(x, pix.height, pix.width)
         d = x[:, 6:7] * pix.width / 4  # half thickness in pixels
         t = bezier_nearest(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py)
         bx, by = bezier.point(pts, t)
@@ -41,6 +43,17 @@ class MarkerPen(Brush):
         fg = x[:, 7:10, None] * (cov > 0)[:, None]
         return fg, x[:, 10:11] * cov
 
+    def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
+        (x0, y0), (x1, y1), (x2, y2) = bezier_points(p, height, width)
+        return "", (
+            f'<path d="M{x0:.3f} {y0:.3f} Q{x1:.3f} {y1:.3f} {x2:.3f} {y2:.3f}" fill="none" '
+            f'stroke="{hex_color(p[7:10])}" stroke-width="{p[6] * width / 2:.3f}" stroke-linecap="square" '
+            f'opacity="{p[10]:.4f}"/>'
+        )
+
+    def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
+        return self, bezier.from_reference(ctt, ctt[:, 6:7], color, alpha, width)  # its 2nd radius is unused
+
 
 MARKERPEN = MarkerPen(
     name="markerpen",
@@ -50,4 +63,5 @@ MARKERPEN = MarkerPen(
     color=(7, 8, 9),
     alpha=10,
     description="quadratic Bézier of constant thickness with a flat, square pen tip",
+    reference=(8, 3),
 )

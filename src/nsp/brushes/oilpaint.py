@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import Tensor
 
 from nsp.brushes.base import Brush, Pixels
+from nsp.brushes.svg import UNIT, hex_color, png_data_uri, rectangle_frame
 from nsp.brushes.tape import rectangle, rectangle_extent
 from nsp.brushes.texture import bristle_texture, load_texture
 from nsp.brushes.geometry import box
@@ -44,8 +46,8 @@ class OilPaint(Brush):
             self._cache[key] = tex
         return self._cache[key]
 
-    def extent(self, x: Tensor, width: int, height: int) -> Tensor:
-        return rectangle_extent(x, width, height)
+    def extent(self, x: Tensor, height: int, width: int) -> Tensor:
+        return rectangle_extent(x, height, width)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
         return box(*rectangle(x, pix))
@@ -61,6 +63,30 @@ class OilPaint(Brush):
         color = (c0 + (c2 - c0) * u.clamp(0, 1)[:, None]) * (0.7 + 0.3 * value[:, None])
         return color * (alpha > 0)[:, None], alpha
 
+    def svg_defs(self) -> list[str]:
+        """The texture, as an alpha mask and a shading overlay in the unit square of a stroke."""
+        texture = self.texture("cpu", torch.float32)[0, 0].numpy()
+        alpha = np.clip(texture / _OPAQUE, 0, 1)
+        shade = 0.3 * (1 - texture)  # black at this opacity multiplies the colour by 0.7 + 0.3·texture
+        unit = UNIT + ' preserveAspectRatio="none"'
+        return [
+            f'<mask id="oil-mask" maskUnits="userSpaceOnUse" {UNIT}><image {unit} href="{png_data_uri(alpha)}"/></mask>',
+            f'<image id="oil-shade" {unit} href="{png_data_uri(np.zeros_like(shade), shade)}"/>',
+        ]
+
+    def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
+        gradient = (
+            f'<linearGradient id="g{index}" gradientUnits="userSpaceOnUse" x1="-0.5" y1="0" x2="0.5" y2="0">'
+            f'<stop offset="0" stop-color="{hex_color(p[5:8])}"/><stop offset="1" stop-color="{hex_color(p[8:11])}"/>'
+            "</linearGradient>"
+        )
+        body = f'<rect {UNIT} fill="url(#g{index})"/><use href="#oil-shade"/>'
+        return gradient, f'<g {rectangle_frame(p, height, width)} mask="url(#oil-mask)">{body}</g>'
+
+    def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
+        sizes = (1 + ctt[:, 2:4] * width) / width  # extents 1 + w·W px -> fraction of W; its alpha is unused
+        return self, np.clip(np.concatenate([ctt[:, :2], sizes, ctt[:, 4:5], color], 1), 0, 1)
+
 
 OILPAINT = OilPaint(
     name="oilpaint",
@@ -70,4 +96,5 @@ OILPAINT = OilPaint(
     color=tuple(range(5, 11)),
     alpha=None,
     description="opaque rotated rectangle with a bristle texture; colour blends head to tail",
+    reference=(5, 6),
 )

@@ -2,31 +2,71 @@
 (r0, C0) at P0 to (r2, C2) at P2, with uniform transparency A."""
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import torch
 from torch import Tensor
 
 from nsp.brushes import bezier
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.geometry import bezier_nearest
+from nsp.brushes.svg import bezier_points, hex_color
+from nsp.brushes.geometry import swept_discs
 
 
 class Watercolor(Brush):
-    def extent(self, x: Tensor, width: int, height: int) -> Tensor:
-        return bezier.extent(x, torch.maximum(x[:, 6], x[:, 7]) * width / 4, width, height)
+    def extent(self, x: Tensor, height: int, width: int) -> Tensor:
+        return bezier.extent(x, torch.maximum(x[:, 6], x[:, 7]) * width / 4, height, width)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
         return bezier.distance_bound(x, pix) - torch.maximum(x[:, 6], x[:, 7])[:, None] * pix.width / 4
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
-        pts = bezier.control_points(x, pix.width, pix.height)
+        pts = bezier.control_points(x, pix.height, pix.width)
         r0, r2 = x[:, 6:7] * pix.width / 4, x[:, 7:8] * pix.width / 4  # radii in pixels
-        t = bezier_nearest(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, taper=(r2 - r0)[:, 0])
-        bx, by = bezier.point(pts, t)
-        sd = torch.sqrt((pix.px - bx) ** 2 + (pix.py - by) ** 2 + 1e-8) - (r0 + (r2 - r0) * t)
-        cov = coverage(sd)
+        t, later = swept_discs(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, (r2 - r0)[:, 0])
+        cov = coverage(self._disc_distance(pts, t, r0, r2, pix))
+        over = coverage(self._disc_distance(pts, later, r0, r2, pix))  # the later pass, drawn on top
         c0, c2 = x[:, 8:11, None], x[:, 11:14, None]
-        fg = (c0 + (c2 - c0) * t[:, None]) * (cov > 0)[:, None]
+        color = c0 + (c2 - c0) * t[:, None]
+        color = color + over[:, None] * (c2 - c0) * (later - t)[:, None]
+        fg = color * (cov > 0)[:, None]
         return fg, x[:, 14:15] * cov
+
+    def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
+        """The swept discs as pieces in order of t, each an outline and its end discs filled with
+        its colour gradient; a later piece covers an earlier one where the stroke curls over itself,
+        as the discs do. The more the stroke turns, the more pieces (one for a straight stroke)."""
+        pts = bezier_points(p, height, width)
+        start, end = pts[1] - pts[0], pts[2] - pts[1]
+        turn = math.atan2(abs(start[0] * end[1] - start[1] * end[0]), float(start @ end))
+        pieces = 1 + math.ceil(turn / (math.pi / 8))
+        r0, r2 = p[6] * width / 4, p[7] * width / 4
+        defs, body = [], []
+        for k, (a, b) in enumerate(zip(np.linspace(0, 1, pieces + 1)[:-1], np.linspace(0, 1, pieces + 1)[1:])):
+            t = np.linspace(a, b, max(3, math.ceil(32 / pieces) + 1))[:, None]
+            at = (1 - t) ** 2 * pts[0] + 2 * (1 - t) * t * pts[1] + t**2 * pts[2]
+            tangent = 2 * (1 - t) * start + 2 * t * end
+            normal = np.stack([-tangent[:, 1], tangent[:, 0]], 1) / (np.linalg.norm(tangent, axis=1, keepdims=True) + 1e-9)
+            radius = r0 + (r2 - r0) * t
+            outline = " ".join(f"{u:.2f},{v:.2f}" for u, v in np.concatenate([at + radius * normal, np.flip(at - radius * normal, 0)]))
+            (xa, ya), (xb, yb) = at[0], at[-1]
+            colors = [hex_color(p[8:11] + (p[11:14] - p[8:11]) * u) for u in (a, b)]
+            defs.append(f'<linearGradient id="g{index}_{k}" gradientUnits="userSpaceOnUse" x1="{xa:.3f}" y1="{ya:.3f}" '
+                        f'x2="{xb:.3f}" y2="{yb:.3f}"><stop offset="0" stop-color="{colors[0]}"/>'
+                        f'<stop offset="1" stop-color="{colors[1]}"/></linearGradient>')
+            body.append(f'<g fill="url(#g{index}_{k})"><polygon points="{outline}"/><circle cx="{xa:.3f}" cy="{ya:.3f}" '
+                        f'r="{radius[0, 0]:.3f}"/><circle cx="{xb:.3f}" cy="{yb:.3f}" r="{radius[-1, 0]:.3f}"/></g>')
+        return "".join(defs), f'<g opacity="{p[14]:.4f}">{"".join(body)}</g>'
+
+    def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
+        return self, bezier.from_reference(ctt, ctt[:, 6:8], color, alpha, width)
+
+    @staticmethod
+    def _disc_distance(pts: Tensor, t: Tensor, r0: Tensor, r2: Tensor, pix: Pixels) -> Tensor:
+        """Signed distance (P, N) from each pixel to the disc at t (P, N) of radius r0 + (r2 − r0)·t."""
+        bx, by = bezier.point(pts, t)
+        return torch.sqrt((pix.px - bx) ** 2 + (pix.py - by) ** 2 + 1e-8) - (r0 + (r2 - r0) * t)
 
 
 WATERCOLOR = Watercolor(
@@ -37,4 +77,5 @@ WATERCOLOR = Watercolor(
     color=tuple(range(8, 14)),
     alpha=14,
     description="quadratic Bézier swept by discs; radius and colour interpolate from P0 to P2",
+    reference=(8, 6),
 )

@@ -41,7 +41,7 @@ def available_bytes() -> int:
 def stroke_cover(brush: Brush, strokes: Tensor, height: int, width: int) -> float:
     """How many canvases the bounding boxes of the largest chunk of strokes (N, d) that
     :func:`paint_canvas` composites at once cover, on a ``height``×``width`` canvas (0 for N = 0)."""
-    box = brush.extent(strokes.detach(), width, height)  # (N, 4) px: x_min, y_min, x_max, y_max
+    box = brush.extent(strokes.detach(), height, width)  # (N, 4) px: x_min, y_min, x_max, y_max
     w = (box[:, 2].clamp(0, width) - box[:, 0].clamp(0, width)).clamp(min=0)
     h = (box[:, 3].clamp(0, height) - box[:, 1].clamp(0, height)).clamp(min=0)
     chunks = (w * h).split(paint_canvas.__kwdefaults__["chunk"])

@@ -65,7 +65,7 @@ def untile(tiles: Tensor, height: int, width: int, tile: int) -> Tensor:
     return image.reshape(*lead, c, rows * tile, cols * tile)[..., :height, :width]
 
 
-def boxed_tiles(box: Tensor, width: int, height: int, tile: int, margin: float) -> Tensor:
+def boxed_tiles(box: Tensor, height: int, width: int, tile: int, margin: float) -> Tensor:
     """(B, rows·cols) mask of the tiles that meet each stroke's box (B, 4) grown by ``margin`` px."""
     rows, cols = math.ceil(height / tile), math.ceil(width / tile)
     r = torch.arange(rows, device=box.device)[None, :, None]
@@ -79,16 +79,16 @@ def in_box(box: Tensor, row: Tensor, col: Tensor, tile: int, margin: float) -> T
     return (col >= lo[..., 0]) & (col <= hi[..., 2]) & (row >= lo[..., 1]) & (row <= hi[..., 3])
 
 
-def near_tiles(brush: Brush, x: Tensor, t: Tensor, width: int, height: int, tile: int, margin: float) -> Tensor:
+def near_tiles(brush: Brush, x: Tensor, t: Tensor, height: int, width: int, tile: int, margin: float) -> Tensor:
     """(P,) whether stroke x[p] can reach tile t[p]: the brush's 1-Lipschitz distance bound at the tile's centre."""
     cols = math.ceil(width / tile)
     cx = (t % cols).to(x.dtype) * tile + (tile - 1) / 2
     cy = torch.div(t, cols, rounding_mode="floor").to(x.dtype) * tile + (tile - 1) / 2
-    return brush.bound(x, Pixels(cx[:, None], cy[:, None], width, height))[:, 0] <= tile / math.sqrt(2) + margin
+    return brush.bound(x, Pixels(cx[:, None], cy[:, None], height, width))[:, 0] <= tile / math.sqrt(2) + margin
 
 
 def subtiles(
-    b: Tensor, t: Tensor, box: Tensor, width: int, height: int, coarse: int, fine: int, margin: float
+    b: Tensor, t: Tensor, box: Tensor, height: int, width: int, coarse: int, fine: int, margin: float
 ) -> tuple[Tensor, Tensor]:
     """The (stroke, tile) pairs of the ``fine`` tiles inside each ``coarse`` tile t that meet the
     stroke's box (B, 4) grown by ``margin`` px: (≤ P·k²,) each, k = coarse / fine."""
@@ -131,15 +131,15 @@ def rasterize(
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
-        while sizes[-1] * 32 <= max(width, height):
+        while sizes[-1] * 32 <= max(height, width):
             sizes.append(sizes[-1] * 4)
-        box = brush.extent(x.detach(), width, height)  # (B, 4) px
-        b, t = boxed_tiles(box, width, height, sizes[-1], margin).nonzero(as_tuple=True)
+        box = brush.extent(x.detach(), height, width)  # (B, 4) px
+        b, t = boxed_tiles(box, height, width, sizes[-1], margin).nonzero(as_tuple=True)
         coarse = None
         for size in reversed(sizes):
             if coarse is not None:
-                b, t = subtiles(b, t, box, width, height, coarse, size, margin)
-            keep = stage(near_tiles)(brush, x.detach()[b], t, width, height, size, margin)
+                b, t = subtiles(b, t, box, height, width, coarse, size, margin)
+            keep = stage(near_tiles)(brush, x.detach()[b], t, height, width, size, margin)
             b, t, coarse = b[keep], t[keep], size
 
     # A pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be recycled
@@ -148,20 +148,20 @@ def rasterize(
     offsets = torch.arange(tile, device=x.device, dtype=x.dtype)
     dx, dy = offsets.repeat(tile), offsets.repeat_interleave(tile)  # pixel n of a tile: row n // tile, column n % tile
     shade = stage(shade_tiles)
-    passes = [shade(brush, xs, ts, dx, dy, width, height, tile, coverage) for xs, ts in zip(x[b].split(step), t.split(step))]
+    passes = [shade(brush, xs, ts, dx, dy, height, width, tile, coverage) for xs, ts in zip(x[b].split(step), t.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, math.ceil(height / tile), math.ceil(width / tile))
 
 
 def shade_tiles(
-    brush: Brush, x: Tensor, t: Tensor, dx: Tensor, dy: Tensor, width: int, height: int, tile: int, coverage
+    brush: Brush, x: Tensor, t: Tensor, dx: Tensor, dy: Tensor, height: int, width: int, tile: int, coverage
 ) -> tuple[Tensor, Tensor]:
     """Foreground (P, 3, n) and alpha (P, n) of strokes x (P, d) on tiles t (P,), whose pixel k lies
     (dx[k], dy[k]) from the tile's corner (n = tile² pixels)."""
     cols = math.ceil(width / tile)
     px = ((t % cols) * tile).to(x.dtype)[:, None] + dx
     py = (torch.div(t, cols, rounding_mode="floor") * tile).to(x.dtype)[:, None] + dy
-    return brush.paint(x, Pixels(px, py, width, height), coverage)
+    return brush.paint(x, Pixels(px, py, height, width), coverage)
 
 
 def write_tiles(segments: Tensor, stroke: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, rows: int, cols: int) -> None:

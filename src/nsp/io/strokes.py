@@ -25,25 +25,18 @@ class StrokeFile:
     """A painting: an ordered list of strokes of one brush on a plain canvas.
 
     Attributes:
-        brush: brush name.
+        brush: the brush, its oil texture (``brush.texture=PATH``) included.
         strokes: (N, d) parameters in [0, 1], painted first to last.
-        width, height: the canvas size the strokes were made for; only the aspect ratio matters,
+        height, width: the canvas size the strokes were made for; only the aspect ratio matters,
             strokes render at any size.
         background: canvas colour, ``black``, ``white`` or ``#rrggbb``.
-        texture: the image an oil painting's bristle texture came from (``brush.texture=PATH``);
-            None for nsp's own.
     """
 
-    brush: str
+    brush: Brush
     strokes: Tensor
-    width: int = 512
     height: int = 512
+    width: int = 512
     background: str = "white"
-    texture: str | None = None
-
-    def spec(self) -> Brush:
-        """The brush the strokes are painted with, its texture included."""
-        return get_brush(self.brush, self.texture)
 
     def size(self, long_side: int) -> tuple[int, int]:
         """(height, width) in pixels for a render whose long side is ``long_side``."""
@@ -53,7 +46,7 @@ class StrokeFile:
 
 def save_strokes(path: str | Path, painting: StrokeFile) -> None:
     """Write ``painting`` as nsp JSON; :func:`load_strokes` reads back exactly the same values."""
-    brush = painting.spec()
+    brush = painting.brush
     data = {
         "format": FORMAT,
         "version": VERSION,
@@ -68,8 +61,8 @@ def save_strokes(path: str | Path, painting: StrokeFile) -> None:
         # float() of a float32 is exact, and JSON keeps every digit of a Python float.
         "strokes": [dict(zip(brush.params, map(float, row))) for row in painting.strokes.tolist()],
     }
-    if painting.texture is not None:
-        data["texture"] = str(Path(painting.texture).resolve())  # re-renders from any folder
+    if brush.texture_path is not None:
+        data["texture"] = str(Path(brush.texture_path).resolve())  # re-renders from any folder
     write_json(path, data, indent=1)
 
 
@@ -102,7 +95,8 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
     name = data.get("brush")
     if not isinstance(name, str) or name not in BRUSHES:
         raise StrokeFileError(f"strokes={path}: unknown brush {name!r}, expected one of: {', '.join(BRUSHES)}")
-    spec = get_brush(name)
+    params = data.get("params")
+    spec = get_brush(name, params=params if isinstance(params, list) else None)
     if brush is not None and brush != spec.name:
         raise StrokeFileError(f"strokes={path} holds {spec.name} strokes, not brush={brush}")
     canvas = data.get("canvas")
@@ -134,10 +128,10 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
         raise StrokeFileError(f'strokes={path} is malformed: expected "texture": the path of an image')
     if texture is not None:
         try:
-            get_brush(spec.name, texture)
+            spec = get_brush(spec.name, texture)
         except ValueError as error:
             raise StrokeFileError(f"strokes={path}: its oil texture cannot be used: {error}") from None
-    return StrokeFile(spec.name, values, canvas["width"], canvas["height"], canvas["background"], texture)
+    return StrokeFile(spec, values, canvas["height"], canvas["width"], canvas["background"])
 
 
 def _is_size(value) -> bool:
@@ -161,26 +155,6 @@ def _check_range(path: Path, strokes: Tensor, params: tuple[str, ...]) -> None:
         )
 
 
-# The reference implementation's conventions -> nsp's resolution-independent ones, at canvas width W.
-def _reference_to_nsp(brush: str, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, w: int) -> np.ndarray:
-    if brush in ("watercolor", "markerpen"):
-        x0, y0, x1, y1, x2, y2 = ctt[:, :6].T
-        shape = [x0, y0, x0 + (x2 - x0) * x1, y0 + (y2 - y0) * y1, x2, y2]  # relative P1 -> absolute
-        radii = ctt[:, 6:8] if brush == "watercolor" else ctt[:, 6:7]  # marker pen's 2nd radius unused
-        shape += list(((1 + radii * w / 4) / (w / 4)).T)  # radius 1 + r·W/4 px -> r'·W/4
-        parts = [np.stack(shape, 1), color, alpha]
-    elif brush == "tape":
-        sizes = 2 * (1 + ctt[:, 2:4] * w / 4) / w  # half extents 1 + w·W/4 px -> full extent / W
-        parts = [ctt[:, :2], sizes, ctt[:, 4:5], color]
-    else:  # oilpaint
-        sizes = (1 + ctt[:, 2:4] * w) / w  # extents 1 + w·W px -> fraction of W
-        parts = [ctt[:, :2], sizes, ctt[:, 4:5], color]
-    return np.clip(np.concatenate(parts, 1), 0, 1)
-
-
-_REFERENCE_DIMS = {"watercolor": (8, 6), "markerpen": (8, 3), "tape": (5, 3), "oilpaint": (5, 6)}
-
-
 def _load_npz(path: Path, brush: str, size: int) -> StrokeFile:
     spec = get_brush(brush)
     try:
@@ -191,7 +165,7 @@ def _load_npz(path: Path, brush: str, size: int) -> StrokeFile:
     except (OSError, ValueError) as err:
         raise StrokeFileError(f"strokes={path} is not a readable .npz ({err})") from None
     ctt, color, alpha = (a.reshape(-1, a.shape[-1]) if a.ndim == 3 else a for a in arrays)
-    n_ctt, n_color = _REFERENCE_DIMS[spec.name]
+    n_ctt, n_color = spec.reference
     if ctt.shape[1:] != (n_ctt,) or color.shape[1:] != (n_color,) or len(ctt) != len(color) or alpha.size != len(ctt):
         raise StrokeFileError(
             f"strokes={path}: x_ctt {ctt.shape} / x_color {color.shape} / x_alpha {alpha.shape} do not fit "
@@ -204,5 +178,5 @@ def _load_npz(path: Path, brush: str, size: int) -> StrokeFile:
             f"strokes={path}: {bad.sum()} of {len(ctt)} strokes hold NaN or infinite values "
             f"(first: stroke {bad.nonzero()[0][0]}); expected finite numbers"
         )
-    strokes = _reference_to_nsp(spec.name, ctt, color, alpha, size)
-    return StrokeFile(spec.name, torch.tensor(strokes, dtype=torch.float32), size, size, "white")
+    painted_with, strokes = spec.from_reference(ctt, color, alpha, size)
+    return StrokeFile(painted_with, torch.tensor(strokes, dtype=torch.float32), size, size, "white")

@@ -20,7 +20,7 @@ def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tupl
     """Write ``strokes.json`` and ``final.png`` (the engine, long side ``render_size``) of strokes
     (N, d) painted on a canvas of ``aspect`` (height, width); returns the image (3, h, w)."""
     height, width = long_side(*aspect, render_size)
-    save_strokes(out / "strokes.json", StrokeFile(brush.name, strokes, width, height, background, brush.texture_path))
+    save_strokes(out / "strokes.json", StrokeFile(brush, strokes, height, width, background))
     with torch.no_grad():
         final = paint_canvas(brush, strokes, height, width, background)
     write_png(out / "final.png", final)
@@ -30,9 +30,9 @@ def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tupl
 def write_vector_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str,
                        render_size: int, animation_size: int, frames: int) -> None:
     """Write ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order)."""
-    write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size)[::-1], background)
+    write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background)
     height, width = long_side(*aspect, animation_size)
-    write_gif(out / "animation.gif", brush, strokes, width, height, background, frames=frames)
+    write_gif(out / "animation.gif", brush, strokes, height, width, background, frames=frames)
 
 
 def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:

@@ -1,0 +1,36 @@
+"""What the brushes' SVG elements share: colours, embedded images, the unit-square frame of a
+rectangle stroke."""
+from __future__ import annotations
+
+import base64
+import io
+
+import numpy as np
+
+UNIT = 'x="-0.5" y="-0.5" width="1" height="1"'  # the unit square a rectangle stroke is drawn in
+
+
+def hex_color(rgb) -> str:
+    """(r, g, b) in [0, 1] -> ``#rrggbb``."""
+    return "#" + "".join(f"{round(float(c) * 255):02x}" for c in rgb)
+
+
+def png_data_uri(gray: np.ndarray, alpha: np.ndarray | None = None) -> str:
+    """A (H, W) grayscale image in [0, 1], with an optional alpha, as an embedded PNG."""
+    from PIL import Image
+
+    mode, array = ("L", gray) if alpha is None else ("LA", np.stack([gray, alpha], -1))
+    buffer = io.BytesIO()
+    Image.fromarray((array * 255 + 0.5).astype(np.uint8), mode).save(buffer, format="PNG")
+    return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode()
+
+
+def rectangle_frame(p: np.ndarray, height: int, width: int) -> str:
+    """The transform taking the unit square to the rectangle p[0:5] = x, y, w, h, θ, in pixels."""
+    cx, cy, w, h = p[0] * (width - 1), p[1] * (height - 1), max(p[2] * width, 1e-3), max(p[3] * width, 1e-3)
+    return f'transform="translate({cx:.3f} {cy:.3f}) rotate({p[4] * 180:.3f}) scale({w:.3f} {h:.3f})"'
+
+
+def bezier_points(p: np.ndarray, height: int, width: int) -> np.ndarray:
+    """P0, P1, P2 of p[0:6] = x0, y0, x1, y1, x2, y2 in pixels: (3, 2)."""
+    return p[:6].reshape(3, 2) * [width - 1, height - 1]
