@@ -1,8 +1,10 @@
 """``python -m nsp.report``: a fabricated multirun dir gives exactly the expected tables; failed jobs show."""
 import json
+import re
 from pathlib import Path
 
 import pytest
+from matplotlib.figure import Figure
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.report import cli
@@ -10,11 +12,14 @@ from nsp.reporting import write_report
 from nsp.reporting.collect import collect
 
 
-def fake_job(sweep: Path, num: int, overrides: list[str], metrics: dict | None, psnr_curve=()) -> None:
-    """A job dir as Hydra and nsp.train leave it: .hydra/{hydra,overrides}.yaml, metrics.json, events."""
-    job = sweep / f"{num}_job"
+def fake_job(sweep: Path, num: int | str, overrides: list[str], metrics: dict | None, psnr_curve=()) -> None:
+    """A job dir as Hydra and nsp.train leave it: .hydra/{hydra,overrides}.yaml, metrics.json, events.
+    A ``num`` that is a name makes a single run's dir of that name (Hydra gives it no job number)."""
+    single = isinstance(num, str)
+    job = sweep / (num if single else f"{num}_job")
     (job / ".hydra").mkdir(parents=True)
-    (job / ".hydra" / "hydra.yaml").write_text(f"hydra:\n  mode: MULTIRUN\n  job:\n    num: {num}\n")
+    (job / ".hydra" / "hydra.yaml").write_text(f"hydra:\n  mode: {'RUN' if single else 'MULTIRUN'}\n  job:\n"
+                                               f"    num: {'???' if single else num}\n")
     (job / ".hydra" / "overrides.yaml").write_text("".join(f"- {line}\n" for line in overrides))
     if metrics is not None:
         (job / "metrics.json").write_text(json.dumps(metrics))
@@ -60,8 +65,15 @@ def test_renderer_sweep_report_is_exactly_the_expected_tables(renderer_sweep):
         "| dual_raster | 20.50 | 24.02 | 22.25 | 25.77 |\n"
         "| dual | 23.00 | 26.98 | failed | 31.39 |\n"
     ) in report
-    assert "| dual_raster | +2.50 ± 0.00 | — |" in report  # dual's margin, where both ran
-    assert "| 3 | dual | watercolor | failed | — | — | — |" in report
+    assert "| dual_raster | +2.50 ± 0.00 |\n" in report  # dual's margin, where both ran: no watercolor column
+    assert (
+        "| job | renderer | brush | status | val/psnr | steps | seconds |\n"
+        "|---:|---|---|---|---:|---:|---:|\n"
+        "| 0 | dual_raster | oilpaint | completed | 20.50 | 100 | 9.5 |\n"
+        "| 1 | dual_raster | watercolor | completed | 22.25 | 100 | 9.5 |\n"
+        "| 2 | dual | oilpaint | completed | 23.00 | 100 | 9.5 |\n"
+        "| 3 | dual | watercolor | failed | — | — | — |\n"
+    ) in report
     assert "![val_psnr](val_psnr.png)" in report and "![final_val_psnr](final_val_psnr.png)" in report
     for plot in written[2:]:
         assert plot.read_bytes()[:4] == b"\x89PNG"
@@ -94,7 +106,7 @@ def test_learning_rate_study_scores_validation_and_chooses_each_renderers_rate(t
                      train_metrics(renderer, brush, score, **{"test/psnr": 99.0}))
             num += 1
     report = write_report(tmp_path)[0].read_text()
-    assert "## Final val/psnr (dB) by renderer and brush" in report and "99.00" not in report
+    assert "## Final val/psnr (dB) by renderer and brush" in report and "99.00" not in report.split("## Final")[1]
     assert "| renderer | lr=0.001 | lr=0.003 | chosen |\n|---|---:|---:|---:|\n" in report
     assert "| pxlshuffle | 17.25 | 11.25 | 0.001 |" in report and "| dual | 20.50 | 21.25 | 0.003 |" in report
 
@@ -161,11 +173,64 @@ def test_a_corrupt_metrics_file_is_a_failed_job_naming_it_and_mixed_runs_still_r
     assert all(path.is_file() for path in written)
 
 
-def test_a_single_run_dir_is_reported_by_itself(tmp_path):
-    fake_job(tmp_path, 0, ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", 12.0), [(50, 10.0), (100, 12.0)])
-    run = tmp_path / "0_job"
-    written = write_report(run)
-    assert "1 job: 1 completed." in written[0].read_text() and (run / "val_psnr.png").is_file()
+def test_a_single_run_dir_and_a_folder_of_runs_are_reported(tmp_path, capsys):
+    fake_job(tmp_path, "12-00-00_dcgan_tape", ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", 12.0),
+             [(50, 10.0), (100, 12.0)])
+    run = tmp_path / "12-00-00_dcgan_tape"
+    cli([str(run)])
+    assert capsys.readouterr().out.splitlines()[0] == str(run / "report.md")
+    report = (run / "report.md").read_text()
+    assert "1 job: 1 completed." in report and (run / "val_psnr.png").is_file()
+    assert "| job | val/psnr | steps | seconds |\n|---|---:|---:|---:|\n| 12-00-00_dcgan_tape | 12.00 | 100 | 9.5 |\n" in report
+
+    fake_job(tmp_path, "12-05-00_dual_tape", ["renderer=dual", "brush=tape"], train_metrics("dual", "tape", 13.0))
+    cli([str(tmp_path)])
+    assert "| 12-00-00_dcgan_tape | dcgan | 12.00 |" in (tmp_path / "report.md").read_text()
+
+
+def tables(report: str) -> list[list[list[str]]]:
+    """The markdown tables of a report, each a list of rows of cells (header first, no rule line)."""
+    blocks = re.findall(r"(?:^\|.*\|\n)+", report, flags=re.MULTILINE)
+    return [[[c.strip() for c in line.strip("|").split("|")] for line in block.splitlines() if not line.startswith("|--")]
+            for block in blocks]
+
+
+def test_columns_that_say_nothing_are_left_out_and_each_metric_has_one_format(tmp_path):
+    common = ["trainer.max_steps=100"]
+    for num, (renderer, seed, psnr, seconds) in enumerate([("dcgan", 0, 20.5, 12.34), ("dcgan", 1, 21.0, 30.0),
+                                                          ("dual", 0, 22.125, 7.0), ("dual", 1, 23.0, 101.5)]):
+        fake_job(tmp_path, num, [f"renderer={renderer}", "brush=watercolor", f"seed={seed}", *common],
+                 train_metrics(renderer, "watercolor", psnr, seconds=seconds, size=32, lr=0.003, seed=seed,
+                               **{"test/psnr": psnr - 0.5, "ssim": 0.5}))
+    fake_job(tmp_path, 4, ["renderer=dual_raster", "brush=tape", "seed=0", *common], train_metrics("dual_raster", "tape", 15.0))
+    report = write_report(tmp_path)[0].read_text()
+    # Shared by every job: the overrides, then metrics (the seed is an override; job 4 has no size); no status column.
+    assert "Every job: `trainer.max_steps=100` `steps=100`\n" in report
+    jobs = tables(report)[0]
+    assert jobs[0] == ["job", "renderer", "brush", "seed", "val/psnr", "seconds", "size", "lr", "test/psnr", "ssim"]
+    assert jobs[1:3] == [["0", "dcgan", "watercolor", "0", "20.50", "12.3", "32", "0.003", "20.00", "0.5000"],
+                         ["1", "dcgan", "watercolor", "1", "21.00", "30.0", "32", "0.003", "20.50", "0.5000"]]
+    assert jobs[5] == ["4", "dual_raster", "tape", "0", "15.00", "9.5", "—", "—", "—", "—"]
+    # No table has a column without a value: no "(paper)" column for tape, where the paper has no figure.
+    for table in tables(report):
+        for column in zip(*table[1:]):
+            assert set(column) != {"—"}
+    assert "tape (paper)" not in report and "watercolor (paper)" in report
+
+
+def test_plot_legends_name_the_swept_keys(tmp_path, monkeypatch):
+    for num, (lr, epoch_size) in enumerate([("4e-4", 6400), ("4e-4", 12800), ("1e-3", 6400), ("1e-3", 12800)]):
+        fake_job(tmp_path, num, ["renderer=dcgan", f"model.optimizer.lr={lr}", f"data.epoch_size={epoch_size}"],
+                 train_metrics("dcgan", "tape", 12.0), [(50, 10.0), (100, 12.0)])
+    legends, savefig = [], Figure.savefig
+
+    def save(fig: Figure, *args, **kwargs):  # the legend texts of every plot written
+        legends.extend(text.get_text() for ax in fig.axes if ax.get_legend() for text in ax.get_legend().get_texts())
+        return savefig(fig, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", save)
+    write_report(tmp_path)
+    assert legends == ["lr=4e-4 epoch_size=6400", "lr=4e-4 epoch_size=12800", "lr=1e-3 epoch_size=6400", "lr=1e-3 epoch_size=12800"]
 
 
 def test_margins_also_when_dual_jobs_come_from_another_experiment(tmp_path):

@@ -11,6 +11,7 @@ import torch.nn.functional as F
 from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+from tensorboard.plugins.hparams.plugin_data_pb2 import HParamsPluginData
 
 from nsp.brushes import get_brush
 from nsp.engine import render
@@ -120,24 +121,55 @@ def compose_train(tmp_path: Path, *overrides: str):
     return cfg
 
 
-def test_train_writes_metrics_checkpoints_and_tensorboard(tmp_path):
-    metrics = train(compose_train(tmp_path, "renderer=dcgan", "brush=oilpaint"))
+def hparams(events: EventAccumulator) -> tuple[dict, list[str]]:
+    """The HPARAMS entry of a run's events: its settings and the tags of its metrics."""
+    content = {tag: HParamsPluginData.FromString(data) for tag, data in events.PluginTagToContent("hparams").items()}
+    settings = content["_hparams_/session_start_info"].session_start_info.hparams
+    metrics = content["_hparams_/experiment"].experiment.metric_infos
+    return {key: value.string_value or value.number_value for key, value in settings.items()}, [m.name.tag for m in metrics]
+
+
+def test_train_writes_metrics_checkpoints_and_tensorboard(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("COLUMNS", "80")
+    metrics = train(compose_train(tmp_path, "renderer=dcgan", "brush=oilpaint", "trainer.max_steps=10",
+                                  "trainer.enable_progress_bar=true"))
     assert json.loads((tmp_path / "metrics.json").read_text()) == metrics
     assert {"val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha", "seconds"} <= metrics.keys()
     assert metrics["test/psnr"] != metrics["val/psnr"]  # scored on other strokes
-    assert (metrics["steps"], metrics["renderer"], metrics["brush"], metrics["status"]) == (8, "dcgan", "oilpaint", "completed")
+    assert (metrics["steps"], metrics["renderer"], metrics["brush"], metrics["status"]) == (10, "dcgan", "oilpaint", "completed")
     assert (metrics["lr"], metrics["seed"]) == (3e-3, 0)
     assert {p.name for p in (tmp_path / "checkpoints").iterdir()} == {"best.ckpt", "last.ckpt"}
-
-    events = EventAccumulator(str(tmp_path / "tensorboard"), size_guidance={"images": 0}).Reload().Tags()
-    assert {"train/loss", "val/psnr", "val/psnr_fg", "val/psnr_alpha"} <= set(events["scalars"])
-    assert "val/strokes" in events["images"]
     assert load_renderer(tmp_path / "checkpoints" / "best.ckpt")[1:] == ("oilpaint", 32)
 
-    # Resuming continues from the saved step.
+    # The progress bar counts steps of the run, on one line of 80 columns.
+    bar = [line for line in capsys.readouterr().out.splitlines() if line.startswith("step ")]
+    assert len(bar) == 1 and bar[0].startswith("step 10/10 ") and len(bar[0]) <= 80
+    assert "train/loss: " in bar[0] and "val/psnr: " in bar[0]
+
+    # TensorBoard: one event file; charts grouped train/ val/ test/ lr/, no epoch; validations every epoch
+    # (4 steps) and, once, at the last step, mid-epoch; the final scores in HPARAMS with the run's settings.
+    assert len(list((tmp_path / "tensorboard").glob("events.out.tfevents.*"))) == 1
+    events = EventAccumulator(str(tmp_path / "tensorboard"), size_guidance={"scalars": 0, "images": 0}).Reload()
+    assert set(events.Tags()["scalars"]) == {"train/loss", "lr/Adam", "val/loss", "val/psnr", "val/psnr_fg", "val/psnr_alpha",
+                                             "test/loss", "test/psnr", "test/psnr_fg", "test/psnr_alpha"}
+    assert [e.step for e in events.Scalars("val/psnr")] == [4, 8, 10]
+    assert events.Scalars("val/psnr")[-1].value == pytest.approx(metrics["val/psnr"], abs=1e-3)
+    assert [e.step for e in events.Scalars("test/psnr")] == [10]
+    assert events.Tags()["images"] == ["val/rows_true_fg_pred_fg_true_alpha_pred_alpha"]
+    assert [e.step for e in events.Images("val/rows_true_fg_pred_fg_true_alpha_pred_alpha")] == [4, 8, 10]
+    settings, final = hparams(events)
+    assert settings == {"renderer": "dcgan", "brush": "oilpaint", "size": 32, "channel_mult": 0.125, "batch_size": 8,
+                        "epoch_size": 32, "max_steps": 10, "lr": 3e-3, "lr_schedule": "CosineAnnealingLR", "seed": 0}
+    assert final == ["val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha"]
+
+    # Resuming continues from the saved step; resumed at its last step, a run trains nothing and scores the same.
+    last = tmp_path / "checkpoints" / "last.ckpt"
     resumed = train(compose_train(tmp_path / "resumed", "renderer=dcgan", "brush=oilpaint", "trainer.max_steps=12",
-                                  f"ckpt_path={tmp_path / 'checkpoints' / 'last.ckpt'}"))
+                                  f"ckpt_path={last}"))
     assert resumed["steps"] == 12
+    again = train(compose_train(tmp_path / "again", "renderer=dcgan", "brush=oilpaint", "trainer.max_steps=10",
+                                f"ckpt_path={last}"))
+    assert (again["steps"], again["val/psnr"], again["test/psnr"]) == (10, metrics["val/psnr"], metrics["test/psnr"])
 
 
 def test_load_renderer_refuses_other_files(tmp_path):

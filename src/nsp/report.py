@@ -1,9 +1,10 @@
-"""``python -m nsp.report [DIR]``: tables and plots of a Hydra multirun, a folder of runs or one run.
+"""``python -m nsp.report [DIR]``: tables and plots of training or painting runs, written into DIR.
 
-Writes into DIR ``report.md``, ``report.csv`` (one row per job: swept choices, status, final metrics;
-renderer studies also get the renderer × brush table, mean ± std over seeds, beside the paper's),
-one ``<tag>.png`` per TensorBoard curve and a bar chart of the final score. Works for ``nsp.train``
-and ``nsp.paint`` sweeps alike. Without DIR: the newest sweep under ``multirun/``.
+DIR is a multirun's sweep dir, a folder of run dirs, or one run's dir; without it, the newest sweep
+under ``multirun/``. Writes ``report.md`` (what every job shares, a row per job with the columns that
+tell jobs apart; renderer studies also get the renderer × brush table, mean ± std over seeds, beside
+the paper's), ``report.csv`` (a row per job, every column), one ``<tag>.png`` per TensorBoard curve
+and a bar chart of the final score.
 """
 from __future__ import annotations
 
@@ -14,12 +15,21 @@ from pathlib import Path
 from nsp.cli import BAD_INPUT
 from nsp.reporting import latest_sweep, write_report
 
+SUMMARY = "Tables and plots of training or painting runs, written into DIR."
+EXAMPLES = """examples:
+  python -m nsp.report                         # the newest sweep in multirun/
+  python -m nsp.report multirun/train/<time>   # a sweep: a row per job
+  python -m nsp.report outputs/train/<run>     # one run
+"""
+
 
 def cli(argv: list[str] | None = None) -> None:
     """The command line: ``python -m nsp.report``."""
-    parser = argparse.ArgumentParser(prog="python -m nsp.report", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m nsp.report", description=SUMMARY, epilog=EXAMPLES,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("dir", type=Path, nargs="?",
-                        help="a multirun's sweep dir (e.g. multirun/renderer_comparison/<time>), a folder of runs or a run dir; default: the newest sweep under multirun/")
+                        help="a multirun's sweep dir, a folder of run dirs or one run's dir "
+                             "(default: the newest sweep under multirun/)")
     args = parser.parse_args(argv)
     try:
         written = write_report(args.dir or latest_sweep(Path("multirun")))

@@ -1,4 +1,4 @@
-"""Turning a Hydra multirun into tables and plots (``python -m nsp.report DIR``)."""
+"""Turning Hydra runs (a multirun, a folder of runs, one run) into tables and plots (``python -m nsp.report DIR``)."""
 from __future__ import annotations
 
 from collections import Counter
@@ -7,12 +7,13 @@ from pathlib import Path
 from nsp.reporting.collect import Job, collect, common_overrides, latest_sweep, swept_keys
 from nsp.reporting.plots import plot_all
 from nsp.reporting.tables import (
-    SEED, chosen_rates, headline, is_renderer_sweep, job_rows, margins, pivot, to_csv, to_markdown,
+    SEED, chosen_rates, headline, is_renderer_sweep, job_rows, margins, pivot, shown_jobs, to_csv, to_markdown,
 )
 
 
 def write_report(sweep: Path) -> list[Path]:
-    """Write ``report.md``, ``report.csv`` and the plots of the multirun in ``sweep`` into it.
+    """Write ``report.md``, ``report.csv`` and the plots of the runs in ``sweep`` (a multirun's sweep
+    dir, a folder of run dirs, or one run's dir) into it.
 
     Returns the files written. Raises ``ValueError`` when ``sweep`` holds no Hydra job.
     """
@@ -30,9 +31,10 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
     statuses = Counter(job.status for job in jobs)
     counts = ", ".join(f"{n} {status}" for status, n in sorted(statuses.items(), key=lambda item: (item[0] != "completed", -item[1])))
     lines = [f"# Report: {sweep.name}", "", f"{len(jobs)} job{'s' * (len(jobs) != 1)}: {counts}."]
-    if common := common_overrides(jobs):
+    header, rows, shared = shown_jobs(jobs)
+    if common := common_overrides(jobs) | shared:
         lines += ["", "Every job: " + " ".join(f"`{key}={value}`" for key, value in common.items())]
-    lines += ["", "## Jobs", "", to_markdown(*job_rows(jobs))]
+    lines += ["", "## Jobs", "", to_markdown(header, rows)]
     if errors := [job for job in jobs if job.error]:
         lines += ["Why jobs did not complete:", ""] + [f"- job {job.num}: {job.error}" for job in errors] + [""]
     trained = [job for job in jobs if job.choice("renderer") is not None]  # a folder may mix paintings in

@@ -1,6 +1,7 @@
-"""Tables of a multirun: one row per job (CSV and markdown) and, for renderer sweeps, the study's
-pivot (renderer × brush, mean ± std over seeds, beside the paper's numbers), dual's margin over
-every other renderer, and, for learning-rate studies, the rate each renderer gets."""
+"""Tables of a multirun: one row per job (CSV, and markdown without the columns every job shares)
+and, for renderer sweeps, the study's pivot (renderer × brush, mean ± std over seeds, beside the
+paper's numbers), dual's margin over every other renderer, and, for learning-rate studies, the rate
+each renderer gets."""
 from __future__ import annotations
 
 import csv
@@ -22,6 +23,8 @@ LR = "model.optimizer.lr"
 PANEL = "brush"  # a pivot's columns, a plot's panels
 SEED = "seed"  # repeats of one setting: pooled into mean ± std
 DUAL = "dual"
+# How report.md writes a metric, by a word of its name (``val/psnr_fg``: psnr); other fractions .3f.
+FORMATS = {"psnr": ".2f", "ssim": ".4f", "iou": ".3f", "seconds": ".1f", "lr": "g"}
 
 
 @dataclass
@@ -45,8 +48,8 @@ class Stat:
 
 def metric_keys(jobs: list[Job]) -> list[str]:
     """Numeric metrics any job recorded, in first-seen order; text (the brush's name, the status) has
-    its own columns, and swept values (seed, lr) theirs."""
-    swept = set(swept_keys(jobs))
+    its own columns, and swept values theirs (``seed``, ``lr`` of ``model.optimizer.lr``)."""
+    swept = {key.rsplit(".", 1)[-1] for key in swept_keys(jobs)}
     keys = dict.fromkeys(
         key for job in jobs for key, value in job.metrics.items() if isinstance(value, Number) and not isinstance(value, bool)
     )
@@ -59,6 +62,38 @@ def job_rows(jobs: list[Job]) -> tuple[list[str], list[list]]:
     header = ["job", *swept, "status", *metrics]
     rows = [[job.num, *(job.overrides.get(k) for k in swept), job.status, *(job.metrics.get(k) for k in metrics)] for job in jobs]
     return header, rows
+
+
+def shown_jobs(jobs: list[Job]) -> tuple[list[str], list[list], dict[str, str]]:
+    """The job table as report.md shows it, each metric in its format, and the metrics it leaves out
+    (name -> value, for the "Every job" line) but those an override already names (``seed``, ``lr``
+    of ``model.optimizer.lr``).
+
+    Left out: a status every job shares (the count of jobs says it) and, given two jobs or more, a
+    metric every job shares.
+    """
+    header, rows = job_rows(jobs)
+    metrics, overridden = set(metric_keys(jobs)), {key.rsplit(".", 1)[-1] for job in jobs for key in job.overrides}
+    shared, kept = {}, []
+    for i, name in enumerate(header):
+        values = {row[i] for row in rows}
+        if len(values) == 1 and (name == "status" or (name in metrics and len(rows) > 1)):
+            if name in metrics and name not in overridden:
+                shared[name] = number(name, values.pop())
+            continue
+        kept.append(i)
+    return [header[i] for i in kept], [[number(header[i], row[i]) for i in kept] for row in rows], shared
+
+
+def number(key: str, value):
+    """``value`` of metric ``key`` as report.md writes it (:data:`FORMATS`); text, None and whole
+    numbers of a metric with no format as they are."""
+    if not isinstance(value, Number) or isinstance(value, bool):
+        return value
+    spec = next((FORMATS[word] for word in key.rsplit("/", 1)[-1].split("_") if word in FORMATS), None)
+    if spec is None:
+        return value if isinstance(value, int) else f"{value:.3f}"
+    return format(value, spec)
 
 
 def headline(jobs: list[Job]) -> str | None:
@@ -177,11 +212,16 @@ def to_csv(header: list[str], rows: list[list]) -> str:
 
 
 def to_markdown(header: list[str], rows: list[list]) -> str:
-    """A GitHub markdown table; absent values show as —, numbers (and ``mean ± std``) right-aligned."""
+    """A GitHub markdown table; absent values show as —, numbers (and ``mean ± std``) right-aligned,
+    and a column with no value in any row is left out."""
+    def absent(value) -> bool:
+        return value is None or (isinstance(value, float) and math.isnan(value))
+
     def cell(value) -> str:
-        if value is None or (isinstance(value, float) and math.isnan(value)):
-            return "—"
-        return str(value)
+        return "—" if absent(value) else str(value)
+
+    kept = [i for i in range(len(header)) if not all(absent(row[i]) for row in rows)] if rows else list(range(len(header)))
+    header, rows = [header[i] for i in kept], [[row[i] for i in kept] for row in rows]
 
     def numeric(value) -> bool:
         return value is None or isinstance(value, Number) or (isinstance(value, str) and _is_number(value.split(" ± ")[0]))

@@ -11,15 +11,16 @@ from typing import Iterator, Sequence
 import pytorch_lightning as L
 import torch
 from hydra.utils import instantiate
-from pytorch_lightning.callbacks import Callback, LearningRateMonitor, ModelCheckpoint, RichProgressBar
-from pytorch_lightning.loggers import TensorBoardLogger
+from pytorch_lightning.callbacks import Callback, LearningRateMonitor, ModelCheckpoint
 from pytorch_lightning.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 
 from nsp.io.export import write_json
 from nsp.renderers.checkpoint import check_checkpoint
 from nsp.training.data import StrokeData
+from nsp.training.logger import RunLogger
 from nsp.training.module import RendererModule
+from nsp.training.progress import StepProgressBar
 from nsp.training.schema import check
 
 METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha")
@@ -40,10 +41,32 @@ class SaveOnInterrupt(Callback):
             trainer.save_checkpoint(self.path)
 
 
+class ValidateLastStep(Callback):
+    """Makes the step that reaches ``trainer.max_steps`` a validation step, so the final scores and the
+    last point of every ``val/`` curve are one pass.
+
+    Lightning validates at the end of an epoch; a run that reaches ``max_steps`` mid-epoch stops
+    without validating, unless asked to stop (``should_stop``), which validates first.
+    ``step``: the global step of the last validation in ``fit`` (-1 before any).
+    """
+
+    def __init__(self):
+        self.step = -1
+
+    def on_train_batch_end(self, trainer: L.Trainer, *args) -> None:
+        if trainer.global_step == trainer.max_steps:
+            trainer.should_stop = True
+
+    def on_validation_end(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
+        if not trainer.sanity_checking:
+            self.step = trainer.global_step
+
+
 def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
     """Train the renderer ``cfg`` describes; write checkpoints, TensorBoard events and ``metrics.json``.
 
-    The final model is scored on the validation strokes and then, once, on the test strokes.
+    The final model is scored on the validation strokes (by fit's last validation) and then, once, on
+    the test strokes.
     ``callbacks`` are added to the trainer's own. Returns the metrics written to ``metrics.json``.
     Raises ``ValueError`` for a value it cannot train with, before any work; ``KeyboardInterrupt``
     once an interrupted run (Ctrl-C, SIGTERM) has saved ``checkpoints/last.ckpt`` and its metrics.
@@ -68,10 +91,12 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
         scheduler=instantiate(cfg.model.scheduler),
         scheduler_interval=str(cfg.model.scheduler_interval),
     )
-    logger = TensorBoardLogger(out, name="tensorboard", version="", default_hp_metric=False)
+    logger = RunLogger(out, name="tensorboard", version="", default_hp_metric=False)
     checkpoints = out / "checkpoints"
+    last_validation = ValidateLastStep()
     callbacks = [
         *callbacks,
+        last_validation,
         # no version counter: a resumed run keeps best.ckpt and last.ckpt current in place
         ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True,
                         enable_version_counter=False),
@@ -79,7 +104,7 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
         LearningRateMonitor(),
     ]
     if cfg.trainer.enable_progress_bar:
-        callbacks.append(RichProgressBar())
+        callbacks.append(StepProgressBar())
     # torch's SyncBatchNorm is CUDA-only: on CPU (gloo) each rank keeps its own batch statistics.
     sync_batchnorm = cfg.trainer.sync_batchnorm and cfg.trainer.accelerator != "cpu"
     trainer: L.Trainer = instantiate(
@@ -93,7 +118,13 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
         _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
         raise KeyboardInterrupt from None
     trainer.save_checkpoint(checkpoints / "last.ckpt")  # the final step's, also where max_steps ends mid-epoch
-    scores = trainer.validate(model, datamodule=data, verbose=False)[0] | trainer.test(model, datamodule=data, verbose=False)[0]
+    # The final model's validation scores: fit's last pass, unless that was not of the final model (a run
+    # resumed at its last step trains none; trainer.check_val_every_n_epoch may skip the last epoch).
+    if last_validation.step == trainer.global_step:
+        scores = dict(trainer.callback_metrics)
+    else:
+        scores = trainer.validate(model, datamodule=data, verbose=False)[0]
+    scores |= trainer.test(model, datamodule=data, verbose=False)[0]
     return _finish(trainer, logger, cfg, scores, start, "completed")
 
 
@@ -117,8 +148,8 @@ def quiet_lightning() -> Iterator[None]:
             log.setLevel(level)
 
 
-def _finish(trainer: L.Trainer, logger: TensorBoardLogger, cfg: DictConfig, scores, start: float, status: str) -> dict:
-    """Write ``metrics.json`` and the HPARAMS entry (final scores under ``final/*``); return the metrics."""
+def _finish(trainer: L.Trainer, logger: RunLogger, cfg: DictConfig, scores, start: float, status: str) -> dict:
+    """Write ``metrics.json`` and the HPARAMS entry (the run's settings and final scores); return the metrics."""
     metrics = {k: round(float(scores[k]), 3) for k in METRICS if k in scores} | {
         "steps": trainer.global_step,
         "seconds": round(time.perf_counter() - start, 1),
@@ -130,13 +161,20 @@ def _finish(trainer: L.Trainer, logger: TensorBoardLogger, cfg: DictConfig, scor
         "status": status,
     }
     if trainer.is_global_zero:
-        hparams = {
-            "renderer": cfg.renderer.name, "brush": cfg.brush.name, "size": cfg.model.size, "channel_mult": cfg.model.channel_mult,
-            "batch_size": cfg.data.batch_size, "lr": cfg.model.optimizer.get("lr"), "seed": cfg.seed,
-        }
-        logger.log_hyperparams(hparams, {"final/" + k.replace("/", "_"): metrics[k] for k in METRICS if k in metrics})
+        logger.log_run(_settings(cfg), [k for k in METRICS if k in metrics])
         write_json(Path(cfg.output_dir) / "metrics.json", metrics)
     return metrics
+
+
+def _settings(cfg: DictConfig) -> dict:
+    """The run's key settings, as the HPARAMS tab lists them."""
+    scheduler = cfg.model.scheduler
+    return {
+        "renderer": cfg.renderer.name, "brush": cfg.brush.name, "size": cfg.model.size, "channel_mult": cfg.model.channel_mult,
+        "batch_size": cfg.data.batch_size, "epoch_size": cfg.data.epoch_size, "max_steps": cfg.trainer.max_steps,
+        "lr": cfg.model.optimizer.get("lr"), "lr_schedule": scheduler._target_.rsplit(".", 1)[-1] if scheduler else "constant",
+        "seed": cfg.seed,
+    }
 
 
 __all__ = ["RendererModule", "StrokeData", "train"]

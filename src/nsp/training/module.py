@@ -14,6 +14,7 @@ from torchvision.utils import make_grid
 from nsp.renderers import build
 
 PREVIEW = 8  # validation strokes shown in the TensorBoard image grid
+GRID = "val/rows_true_fg_pred_fg_true_alpha_pred_alpha"  # the grid's tag names its rows, top to bottom
 
 
 class RendererModule(L.LightningModule):
@@ -79,26 +80,25 @@ class RendererModule(L.LightningModule):
 
     def on_validation_epoch_end(self) -> None:
         self.log_scores("val")
-        if isinstance(self.logger, TensorBoardLogger) and self.trainer.is_global_zero:
-            # Rows: true foreground, predicted foreground, true alpha, predicted alpha.
+        if isinstance(self.logger, TensorBoardLogger) and self.trainer.is_global_zero and not self.trainer.sanity_checking:
             rows = [t.expand(-1, 3, -1, -1) for t in self.preview]
             grid = make_grid(torch.cat(rows).clamp(0, 1), nrow=len(rows[0]), padding=1, pad_value=0.5)
-            self.logger.experiment.add_image("val/strokes", grid, self.global_step)
+            self.logger.experiment.add_image(GRID, grid, self.global_step)
 
     def on_test_epoch_end(self) -> None:
         self.log_scores("test")
 
     def log_scores(self, split: str) -> None:
-        """Log ``{split}/psnr_fg``, ``/psnr_alpha`` and their mean ``/psnr``, over every rank's strokes."""
+        """Log ``{split}/psnr_fg``, ``/psnr_alpha`` and their mean ``/psnr``, over every rank's strokes, at the
+        number of steps trained (a logged ``step`` is the x Lightning plots them at; its own would put fit's
+        validations one step before the test and the image grid)."""
         psnr_fg, psnr_alpha = self.psnr_fg.compute(), self.psnr_alpha.compute()  # torchmetrics syncs ranks
         with torch.inference_mode(False):  # states reset under validate()'s inference mode would break fit's updates
             self.psnr_fg.reset()
             self.psnr_alpha.reset()
-        self.log_dict(
-            {f"{split}/psnr_fg": psnr_fg, f"{split}/psnr_alpha": psnr_alpha, f"{split}/psnr": (psnr_fg + psnr_alpha) / 2},
-            prog_bar=split == "val",
-            sync_dist=True,
-        )
+        scores = {f"{split}/psnr_fg": psnr_fg, f"{split}/psnr_alpha": psnr_alpha, "step": float(self.global_step)}
+        self.log_dict(scores, sync_dist=True)
+        self.log(f"{split}/psnr", (psnr_fg + psnr_alpha) / 2, prog_bar=split == "val", sync_dist=True)
 
     def configure_optimizers(self):
         optimizer = self.optimizer(self.parameters())
