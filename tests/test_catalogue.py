@@ -66,7 +66,8 @@ PAINT = [  # (case id, overrides, words the one line must contain)
     ("style size zero", ["style.size=0"], "style.size=0"),
     ("seed not a number", ["seed=abc"], "seed=abc"),
     ("threads negative", ["threads=-1"], "threads=-1"),
-    ("key misspelt", ["strokse=3"], "strokse"),
+    ("key misspelt", ["strokse=3"], "Did you mean 'strokes'"),
+    ("nested key misspelt", ["schedule.max_per_blok=3"], "Did you mean 'schedule.max_per_block'"),
     ("experiment unknown", ["experiment=nope"], "experiment=nope"),
     ("unreadable override", ["strokes=[1,"], "strokes=[1,"),
     ("run dir holds a run", ["hydra.run.dir={previous}"], "already holds a run"),
@@ -209,6 +210,7 @@ RENDER = [
     ("size beyond memory", ["strokes={painting}", "size=10000000", "out={tmp}/r/out.png"], "size=10000000"),
     ("background not a colour", ["strokes={painting}", "background=blue-ish", "out={tmp}/r/out.png"], "blue-ish"),
     ("brush unknown", ["strokes={npz}", "brush=oil", "out={tmp}/r/out.png"], "brush=oil"),
+    ("key misspelt", ["strokes={painting}", "sise=64", "out={tmp}/r/out.png"], "Did you mean 'size'"),
 ]
 
 

@@ -16,7 +16,8 @@ from PIL import Image, ImageSequence
 
 from nsp.brushes import BRUSHES
 from nsp.io.strokes import load_strokes
-from nsp.paint import BadInput, paint
+from nsp.errors import BadInput
+from nsp.painter.run import paint
 
 CONF = Path(__file__).parents[1] / "conf" / "paint"
 TINY = ["strokes=12", "work_size=48", "render_size=96", "animation_size=48", "animation_frames=4", "progress=false",

@@ -9,7 +9,9 @@ from hydra.errors import HydraException
 from omegaconf import OmegaConf
 
 from nsp.renderers import build
-from nsp.training.schema import misspelt_key, register_configs
+from nsp.cli import check_overrides
+from nsp.config import CONF
+from nsp.training.schema import key_tree, register_configs
 
 CONF = Path(__file__).parents[1] / "conf" / "train"
 CHOICES = [f"{group.name}={f.stem}" for group in sorted(CONF.iterdir()) if group.is_dir() for f in sorted(group.glob("*.yaml"))]
@@ -74,11 +76,11 @@ def test_bad_override_fails_at_compose_time(override, words):
     [("trainer.max_epoch=3", "trainer.max_epochs"), ("data.batch_sise=2", "data.batch_size"), ("renderer.channel_mlt=1", "renderer.channel_mult")],
 )
 def test_misspelt_key_gets_did_you_mean(override, suggestion):
-    assert f"Did you mean '{suggestion}'?" in misspelt_key([override])
+    assert f"Did you mean '{suggestion}'?" in check_overrides([override], CONF / "train", key_tree())
 
 
 def test_valid_and_deliberate_overrides_get_no_hint():
-    assert misspelt_key(["-m", "renderer=dcgan,dual", "trainer.max_epochs=3", "+trainer.fast_dev_run=true"]) is None
+    assert check_overrides(["-m", "renderer=dcgan,dual", "trainer.max_epochs=3", "+trainer.fast_dev_run=true"], CONF / "train", key_tree()) is None
 
 
 def test_cli_misspelt_key_is_one_line_and_non_zero_exit():

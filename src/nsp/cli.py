@@ -12,6 +12,7 @@ and the command exits with :data:`INTERRUPTED`. :class:`RunDirs` keeps every run
 """
 from __future__ import annotations
 
+import difflib
 import json
 import os
 import signal
@@ -19,7 +20,7 @@ import sys
 import traceback
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any, Callable, Iterable, Iterator, NoReturn
 
 from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
 from hydra.core.hydra_config import HydraConfig
@@ -30,6 +31,7 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, read_write
 from omegaconf.errors import OmegaConfBaseException
 
+from nsp.errors import BadInput
 from nsp.io.export import write_json
 
 FAILED = 1  # some work failed (a crash, or jobs of a sweep)
@@ -51,12 +53,12 @@ def record(out: Path, status: str, error: str) -> None:
         write_json(out / "metrics.json", {"status": status, "error": error})
 
 
-def run_job(cfg: DictConfig, work: Callable[[DictConfig], dict], bad_input: tuple[type[Exception], ...] = (ValueError,)) -> dict | None:
-    """``work(cfg)``'s metrics; on an error, one line and an exit in a single run, a record in the
+def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
+    """``work(cfg)``'s result; on an error, one line and an exit in a single run, a record in the
     job's dir in a sweep (returns None).
 
-    ``bad_input``: the exceptions whose message is the whole story (a wrong value); any other error
-    in a sweep also becomes a record, with its traceback in ``traceback.txt``. An interrupted job
+    A :class:`~nsp.errors.BadInput` is a wrong value whose message is the whole story; any other
+    error in a sweep also becomes a record, with its traceback in ``traceback.txt``. An interrupted job
     of a sweep (its work has kept what it had) is recorded as such, and the jobs after it do not start.
     """
     out = Path(cfg.output_dir)
@@ -66,10 +68,10 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], dict], bad_input: tupl
         return None
     try:
         return work(cfg)
-    except (*bad_input, InstantiationException) as error:  # a value the work, or a class it builds, refuses
+    except (BadInput, InstantiationException) as error:  # a value the work, or a class it builds, refuses
         message = _one_line(error)
         if stop is None:
-            _bad_input(message)
+            fail(message)
         record(out, "failed", message)
         print(f"error: {out.name}: {message}", file=sys.stderr)
     except Exception as error:
@@ -209,13 +211,13 @@ def _unreadable(override: str) -> str | None:
     return None
 
 
-def command(main: Callable[[], Any], check: Callable[[list[str]], str | None] | None = None,
-            text: Iterable[str] = ()) -> None:
+def command(main: Callable[[], Any], conf: Path, schema: Any, text: Iterable[str] = ()) -> None:
     """Run a command's Hydra ``main`` from the command line.
 
     First the command line: ``-m`` may stand anywhere in it; ``text`` keys' values are quoted where
-    Hydra needs it; an override Hydra cannot read, or one ``check`` (argv -> message or None)
-    objects to, ends with one line and :data:`BAD_INPUT`. Then SIGTERM is treated as Ctrl-C, and an
+    Hydra needs it; an override Hydra cannot read, or one :func:`check_overrides` objects to (against
+    the config dir ``conf`` and the structured config ``schema``), ends with one line and
+    :data:`BAD_INPUT`. Then SIGTERM is treated as Ctrl-C, and an
     interrupt the work has already handled (files kept, message printed) ends with
     :data:`INTERRUPTED`, not a traceback.
     """
@@ -224,9 +226,9 @@ def command(main: Callable[[], Any], check: Callable[[list[str]], str | None] | 
     sys.argv[1:] = argv = quote_text(sweep + [arg for arg in argv if arg not in sweep], text)
     for arg in argv:
         if "=" in arg and not arg.startswith("-") and (complaint := _unreadable(arg)):
-            _bad_input(f"cannot read {arg!r} ({complaint}); quote its value: key='...'")
-    if check and (message := check(argv)):
-        _bad_input(message)
+            fail(f"cannot read {arg!r} ({complaint}); quote its value: key='...'")
+    if message := check_overrides(argv, conf, schema):
+        fail(message)
     signal.signal(signal.SIGTERM, _interrupt)
     os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises its errors here instead of printing them over several lines
     try:
@@ -234,7 +236,7 @@ def command(main: Callable[[], Any], check: Callable[[list[str]], str | None] | 
     except KeyboardInterrupt:
         sys.exit(INTERRUPTED)
     except (HydraException, OmegaConfBaseException) as error:  # composing: a value or key the config rejects
-        _bad_input(_one_line(error))
+        fail(_one_line(error))
 
 
 def _one_line(error: BaseException) -> str:
@@ -249,16 +251,23 @@ def _one_line(error: BaseException) -> str:
     return ": ".join(parts)
 
 
-def unknown_choice(argv: list[str], conf: Path) -> str | None:
-    """One line naming the first ``group=option`` of a command line whose option does not exist in
-    the command's config dir ``conf``, and the valid ones; None if there is none (Hydra's own
-    message for it spans a dozen lines)."""
-    from nsp.brushes import BRUSHES  # the brush group is generated from the brushes, not YAML
-
+def check_overrides(argv: list[str], conf: Path, schema: Any) -> str | None:
+    """The one check of every command line before Hydra composes it: one line naming the first
+    ``group=option`` with no such option in the command's config dir ``conf`` (and the valid ones),
+    or the first ``key=value`` whose key is a near miss of one in ``schema`` (the command's
+    structured config; "Did you mean"); None if neither. Hydra's own messages for these span a
+    dozen lines, or suggest nothing.
+    """
     try:
         overrides = OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
     except OverrideParseException:
         return None
+    return _unknown_choice(overrides, conf) or _misspelt_key(overrides, OmegaConf.to_container(OmegaConf.structured(schema)))
+
+
+def _unknown_choice(overrides: list, conf: Path) -> str | None:
+    from nsp.brushes import BRUSHES  # the brush group is generated from the brushes, not YAML
+
     for override in overrides:
         group = override.key_or_group
         if group == "brush":
@@ -274,6 +283,28 @@ def unknown_choice(argv: list[str], conf: Path) -> str | None:
     return None
 
 
-def _bad_input(message: str) -> None:
+def _misspelt_key(overrides: list, tree: dict) -> str | None:
+    """Only plain ``key=value`` overrides are checked (``+``/``++``/``~`` deliberately add or remove
+    keys); keys under a node the schema leaves open (a config group's own keys) are Hydra's."""
+    for override in overrides:
+        key = override.key_or_group
+        if override.is_add() or override.is_force_add() or override.is_delete() or key.split(".")[0] == "hydra":
+            continue
+        node = tree
+        for depth, part in enumerate(key.split(".")):
+            if not isinstance(node, dict):
+                break
+            if part not in node:
+                close = difflib.get_close_matches(part, list(node), n=1)
+                if not close:
+                    break
+                where = ".".join(key.split(".")[:depth] + [close[0]])
+                return f"Could not override '{key}': no such key. Did you mean '{where}'?"
+            node = node[part]
+    return None
+
+
+def fail(message: str) -> NoReturn:
+    """The end of every command given a bad input: the one line, ``error: …``, and :data:`BAD_INPUT`."""
     print(message if message.startswith("error: ") else f"error: {message}", file=sys.stderr)
     sys.exit(BAD_INPUT)

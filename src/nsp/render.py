@@ -9,13 +9,13 @@ from typing import Optional
 
 import hydra
 from hydra.core.config_store import ConfigStore
-from omegaconf import MISSING, DictConfig
-from omegaconf.errors import MissingMandatoryValue
+from omegaconf import MISSING, DictConfig, OmegaConf
 
-from nsp.cli import BAD_INPUT, command, unknown_choice
+from nsp.cli import command, fail
 from nsp.config import CONF, BrushConfig
 from nsp.engine.canvas import parse_color
 from nsp.engine.memory import check_canvas, stroke_cover
+from nsp.errors import BadInput
 from nsp.io.export import EXTENSIONS, GIF_FRAMES, write_painting
 from nsp.io.strokes import load_strokes
 
@@ -37,14 +37,17 @@ ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 def render(cfg: DictConfig) -> Path:
     """Render ``cfg.strokes`` to ``cfg.out``; returns the written path. The file appears whole or
     not at all: an error or an interrupt leaves no partial file."""
+    for key in ("strokes", "out"):
+        if OmegaConf.is_missing(cfg, key):
+            raise BadInput(f"{key}= is required (strokes=PATH out=PATH.png|.svg|.gif)")
     out = Path(cfg.out)
     suffix = out.suffix.lower()
     if out.is_dir():
-        raise ValueError(f"out={cfg.out} is a folder; expected a file path ending in {', '.join(EXTENSIONS)}")
+        raise BadInput(f"out={cfg.out} is a folder; expected a file path ending in {', '.join(EXTENSIONS)}")
     if suffix not in EXTENSIONS:
-        raise ValueError(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS)}")
+        raise BadInput(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS)}")
     if cfg.size <= 0:
-        raise ValueError(f"size={cfg.size}: expected a positive number of pixels")
+        raise BadInput(f"size={cfg.size}: expected a positive number of pixels")
     name = cfg.brush.name if cfg.get("brush") else None  # reference .npz files only
     painting = load_strokes(cfg.strokes, brush=name, size=cfg.size)
     background = cfg.background if cfg.background is not None else painting.background
@@ -57,11 +60,11 @@ def render(cfg: DictConfig) -> Path:
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        raise ValueError(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
+        raise BadInput(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
     try:
         write_painting(out, brush, painting.strokes, height, width, background)
     except OSError as err:
-        raise ValueError(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
+        raise BadInput(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out
 
 
@@ -69,12 +72,8 @@ def render(cfg: DictConfig) -> Path:
 def main(cfg: DictConfig) -> None:
     try:
         print(f"wrote {render(cfg)}")
-    except MissingMandatoryValue as err:
-        print(f"error: {err.full_key}= is required (strokes=PATH out=PATH.png|.svg|.gif)", file=sys.stderr)
-        sys.exit(BAD_INPUT)
-    except ValueError as err:
-        print(f"error: {err}", file=sys.stderr)
-        sys.exit(BAD_INPUT)
+    except BadInput as err:
+        fail(str(err))
     except KeyboardInterrupt:
         print(f"interrupted: nothing written to {cfg.out}", file=sys.stderr)
         raise
@@ -82,7 +81,7 @@ def main(cfg: DictConfig) -> None:
 
 def cli() -> None:
     """The command line: ``python -m nsp.render``."""
-    command(main, check=lambda argv: unknown_choice(argv, CONF / "render"), text=TEXT)
+    command(main, CONF / "render", RenderConfig(brush=BrushConfig(MISSING)), text=TEXT)
 
 
 if __name__ == "__main__":

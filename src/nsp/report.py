@@ -9,10 +9,10 @@ and a bar chart of the final score.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from nsp.cli import BAD_INPUT
+from nsp.cli import fail
+from nsp.errors import BadInput
 from nsp.reporting import latest_sweep, write_report
 
 SUMMARY = "Tables and plots of training or painting runs, written into DIR."
@@ -33,9 +33,8 @@ def cli(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     try:
         written = write_report(args.dir or latest_sweep(Path("multirun")))
-    except ValueError as error:
-        print(f"error: {error}", file=sys.stderr)
-        sys.exit(BAD_INPUT)
+    except BadInput as error:
+        fail(str(error))
     for path in written:
         print(path)
 

@@ -11,10 +11,10 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
-from nsp.cli import INTERRUPTED, command, run_job, unknown_choice
+from nsp.cli import INTERRUPTED, command, run_job
 from nsp.config import CONF
 from nsp.training import train
-from nsp.training.schema import misspelt_key, register_configs
+from nsp.training.schema import key_tree, register_configs
 
 register_configs()
 
@@ -38,8 +38,7 @@ def main(cfg: DictConfig) -> float | None:
 
 def cli() -> None:
     """The command line: ``python -m nsp.train``."""
-    command(main, check=lambda argv: unknown_choice(argv, CONF / "train") or misspelt_key(argv),
-            text=("ckpt_path", "brush.texture", "hydra.run.dir", "hydra.sweep.dir"))
+    command(main, CONF / "train", key_tree(), text=("ckpt_path", "brush.texture", "hydra.run.dir", "hydra.sweep.dir"))
 
 
 if __name__ == "__main__":

@@ -9,6 +9,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
+from nsp.errors import BadInput
+
 
 def _smooth_noise(n: int, knots: int, generator: torch.Generator) -> Tensor:
     """1-D value noise: ``knots`` random values in [0, 1], linearly resampled to ``n`` points."""
@@ -44,5 +46,5 @@ def load_texture(path: str | Path) -> Tensor:
     try:
         image = Image.open(path).convert("L")
     except (OSError, ValueError) as err:
-        raise ValueError(f"brush.texture={path} is not a readable image ({err})") from None
+        raise BadInput(f"brush.texture={path} is not a readable image ({err})") from None
     return torch.from_numpy(np.asarray(image, dtype=np.float32) / 255.0)

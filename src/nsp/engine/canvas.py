@@ -8,6 +8,7 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush
 from nsp.engine.raster import composite_tiles, rasterize, to_tiles, untile
+from nsp.errors import BadInput
 
 _NAMED = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
 
@@ -21,7 +22,7 @@ def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
         return _NAMED[text]
     if re.fullmatch(r"#[0-9a-f]{6}", text):
         return tuple(int(text[i : i + 2], 16) / 255 for i in (1, 3, 5))
-    raise ValueError(f"background={value} is not a colour; expected black, white or #rrggbb")
+    raise BadInput(f"background={value} is not a colour; expected black, white or #rrggbb")
 
 
 def paint_canvas(

@@ -14,6 +14,7 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush
 from nsp.engine.canvas import paint_canvas
+from nsp.errors import BadInput
 
 # Peak RSS over the pre-render baseline (ru_maxrss) of write_painting on the CPU:
 CANVAS_BYTES = 37  # per canvas pixel, no strokes: PNG 38.5, 36.6, 36.1 B/px at 1000, 2000, 4000 px; GIF 25–26
@@ -22,7 +23,7 @@ FRAME_BYTES = 2.5  # per pixel and GIF frame kept until the file is written: 51 
 TYPICAL_COVER = 25.0  # stroke_cover of those paintings (the painter's default progressive schedule): 13–25
 
 
-class MemoryLimit(ValueError):
+class MemoryLimit(BadInput):
     """A render larger than the memory available; the message names the largest size that fits."""
 
 

@@ -25,6 +25,7 @@ from torchvision.utils import make_grid
 from nsp.io.export import write_json
 from nsp.brushes import Brush, get_brush
 from nsp.engine import composite, paint_canvas, parse_color, render
+from nsp.errors import BadInput
 from nsp.io.export import write_png
 from nsp.painter.losses import PaintLoss
 from nsp.painter.renderer import AnalyticRenderer, load_neural
@@ -198,7 +199,7 @@ def off_ink_starts(brush: Brush, mask: Tensor, k: int, length: float, size: tupl
     mask: (count, 1, s, s) ink in [0, 1]. Bézier strokes: P0 and P2 ``length`` apart, P1 halfway.
     """
     if brush.kinds[:6] != ("x", "y") * 3:
-        raise ValueError(f"ot_digits draws Bézier strokes; brush={brush.name} is not one (use markerpen or watercolor)")
+        raise BadInput(f"ot_digits draws Bézier strokes; brush={brush.name} is not one (use markerpen or watercolor)")
     count, side = mask.shape[0], mask.shape[-1]
     reach = round((gap + length) * side)
     near_ink = F.max_pool2d((mask > 0.05).float(), 2 * reach + 1, stride=1, padding=reach)[:, 0] > 0
@@ -206,7 +207,7 @@ def off_ink_starts(brush: Brush, mask: Tensor, k: int, length: float, size: tupl
     for digit in range(count):
         free = torch.nonzero(~near_ink[digit]).float() / (side - 1)  # (n, 2) as (y, x)
         if len(free) == 0:
-            raise ValueError(f"digit {digit} leaves no canvas {gap} away from its ink; lower task.gap")
+            raise BadInput(f"digit {digit} leaves no canvas {gap} away from its ink; lower task.gap")
         pick = free[torch.randint(len(free), (k,), generator=generator)]
         angle = torch.pi * torch.rand(k, generator=generator)
         half = 0.5 * length * torch.stack([angle.cos(), angle.sin()], -1)  # (k, 2) as (x, y)

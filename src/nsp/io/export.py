@@ -16,6 +16,7 @@ from torch import Tensor
 from nsp.brushes import Brush
 from nsp.brushes.svg import hex_color
 from nsp.engine.canvas import paint_canvas, parse_color
+from nsp.errors import BadInput
 
 EXTENSIONS = (".png", ".svg", ".gif")
 GIF_FRAMES = 50  # frames of an animation after its empty canvas
@@ -107,4 +108,4 @@ def write_painting(path: str | Path, brush: Brush, strokes: Tensor, height: int,
     elif suffix == ".gif":
         write_gif(path, brush, strokes, height, width, background)
     else:
-        raise ValueError(f"out={path}: unknown extension '{suffix}', expected one of {', '.join(EXTENSIONS)}")
+        raise BadInput(f"out={path}: unknown extension '{suffix}', expected one of {', '.join(EXTENSIONS)}")

@@ -11,12 +11,13 @@ from torch import Tensor
 
 from nsp.brushes import BRUSHES, Brush, get_brush
 from nsp.engine.canvas import parse_color
+from nsp.errors import BadInput
 from nsp.io.export import write_json
 
 FORMAT, VERSION = "nsp-strokes", 1
 
 
-class StrokeFileError(ValueError):
+class StrokeFileError(BadInput):
     """A stroke file that cannot be read; the message names the file and what is expected."""
 
 

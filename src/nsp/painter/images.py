@@ -11,6 +11,8 @@ import torch.nn.functional as F
 from PIL import ExifTags, Image, ImageOps
 from torch import Tensor
 
+from nsp.errors import BadInput
+
 
 def _skimage(name: str) -> Callable[[], np.ndarray]:
     def load() -> np.ndarray:
@@ -40,7 +42,7 @@ BUILTIN: dict[str, Callable[[], np.ndarray]] = {
 }
 
 
-class ImageError(ValueError):
+class ImageError(BadInput):
     """An ``image=`` that cannot be painted; the message names it and what is valid."""
 
 

@@ -12,6 +12,7 @@ from torch import Tensor, nn
 
 from nsp.brushes import Brush
 from nsp.engine import render
+from nsp.errors import BadInput
 from nsp.renderers.checkpoint import load_renderer
 
 
@@ -54,7 +55,7 @@ def load_neural(path: str | Path, brush: Brush) -> NeuralRenderer:
     not one or was trained for another brush."""
     network, trained_for, size = load_renderer(path, map_location="cpu")
     if trained_for != brush.name:
-        raise ValueError(
+        raise BadInput(
             f"renderer.checkpoint={path} renders {trained_for} strokes, not brush={brush.name}; "
             f"use brush={trained_for} or a checkpoint from `python -m nsp.train brush={brush.name}`"
         )

@@ -9,6 +9,7 @@ from typing import Any, Mapping
 
 from torch import nn
 
+from nsp.errors import BadInput
 from nsp.renderers.common import SIZES, check_size
 from nsp.renderers.dcgan import DCGAN, ShadingNetwork
 from nsp.renderers.dual import DualPathway
@@ -28,7 +29,7 @@ def build(config: Mapping[str, Any], brush: str) -> nn.Module:
     check_size(config["size"])
     family = str(config["_target_"]).rsplit(".", 1)[-1]
     if family not in FAMILIES:
-        raise ValueError(f"renderer _target_={config['_target_']}: expected one of "
+        raise BadInput(f"renderer _target_={config['_target_']}: expected one of "
                          + ", ".join(f"nsp.renderers.{name}" for name in FAMILIES))
     arguments = {key: value for key, value in config.items() if key not in ("_target_", "name")}
     return FAMILIES[family](brush=brush, **arguments)

@@ -7,6 +7,7 @@ from pathlib import Path
 import torch
 from torch import nn
 
+from nsp.errors import BadInput
 from nsp.renderers import build
 
 
@@ -14,13 +15,13 @@ def read_checkpoint(path, map_location="cpu") -> dict:
     """A checkpoint of ``python -m nsp.train`` as saved; raises ``ValueError`` (one line) for a file
     that is missing or is not one (truncated, another program's)."""
     if not Path(path).is_file():
-        raise ValueError(f"renderer checkpoint {path} does not exist")
+        raise BadInput(f"renderer checkpoint {path} does not exist")
     try:
         ckpt = torch.load(path, map_location=map_location, weights_only=True)
         ckpt["hyper_parameters"]["renderer"]["size"], ckpt["hyper_parameters"]["brush"], ckpt["state_dict"]
     except (pickle.UnpicklingError, RuntimeError, KeyError, TypeError, IndexError, EOFError, ValueError) as error:
         reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
-        raise ValueError(f"{path} is not an nsp renderer checkpoint (train one with `python -m nsp.train`): {reason}") from None
+        raise BadInput(f"{path} is not an nsp renderer checkpoint (train one with `python -m nsp.train`): {reason}") from None
     return ckpt
 
 
@@ -29,7 +30,7 @@ def check_checkpoint(path, renderer: str, brush: str, size: int) -> None:
     saved = read_checkpoint(path)["hyper_parameters"]
     theirs = (saved["renderer"].get("name"), saved["brush"], saved["renderer"]["size"])
     if theirs != (renderer, brush, size):
-        raise ValueError(f"ckpt_path={path} holds renderer={theirs[0]} brush={theirs[1]} model.size={theirs[2]}; "
+        raise BadInput(f"ckpt_path={path} holds renderer={theirs[0]} brush={theirs[1]} model.size={theirs[2]}; "
                          f"this run is renderer={renderer} brush={brush} model.size={size}: resume with those")
 
 

@@ -3,13 +3,15 @@ from __future__ import annotations
 
 from torch import Tensor
 
+from nsp.errors import BadInput
+
 SIZES = (32, 64, 128)  # the networks double the resolution layer by layer from 4×4 (DCGAN) or 16×16 (shuffle)
 
 
 def check_size(size: int) -> None:
     """Raise ``ValueError`` unless ``size`` is one of :data:`SIZES`."""
     if size not in SIZES:
-        raise ValueError(f"renderer size must be one of {', '.join(map(str, SIZES))}, got {size}")
+        raise BadInput(f"renderer size must be one of {', '.join(map(str, SIZES))}, got {size}")
 
 
 def channels(base: int, channel_mult: float) -> int:

@@ -18,6 +18,7 @@ import torch
 from torch import Tensor, nn
 
 from nsp.brushes import get_brush
+from nsp.errors import BadInput
 from nsp.renderers.dcgan import ShadingNetwork
 from nsp.renderers.pxlshuffle import RasterizationNetwork
 
@@ -39,7 +40,7 @@ class DualPathway(nn.Module):
         super().__init__()
         pathways = tuple(pathways)
         if not pathways or not set(pathways) <= set(PATHWAYS):
-            raise ValueError(f"pathways must be a non-empty subset of {list(PATHWAYS)}, got {list(pathways)}")
+            raise BadInput(f"pathways must be a non-empty subset of {list(PATHWAYS)}, got {list(pathways)}")
         spec = get_brush(brush)
         self.size = size
         self.shape_index = list(spec.shape)

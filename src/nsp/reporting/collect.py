@@ -12,6 +12,8 @@ from omegaconf import OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
+from nsp.errors import BadInput
+
 FAILED = "failed"
 NOT_RUN = "not run"
 
@@ -85,12 +87,12 @@ def collect(sweep: Path) -> list[Job]:
     Raises ``ValueError`` naming ``sweep`` when it holds no job.
     """
     if not sweep.is_dir():
-        raise ValueError(f"{sweep} is not a directory; expected a Hydra multirun dir (job dirs with .hydra/overrides.yaml)")
+        raise BadInput(f"{sweep} is not a directory; expected a Hydra multirun dir (job dirs with .hydra/overrides.yaml)")
     if is_job(sweep):
         return [read_job(sweep)]
     jobs = [read_job(p) for p in sweep.iterdir() if p.is_dir() and is_job(p)]
     if not jobs:
-        raise ValueError(f"{sweep} holds no Hydra job; expected a run dir or job dirs with .hydra/overrides.yaml (a `-m` run's sweep dir)")
+        raise BadInput(f"{sweep} holds no Hydra job; expected a run dir or job dirs with .hydra/overrides.yaml (a `-m` run's sweep dir)")
     ran = {job.num for job in jobs}
     missing = [Job(num, sweep / str(num), dict(o.split("=", 1) for o in overrides), status=NOT_RUN,
                    error="the sweep ended before this job began")
@@ -117,7 +119,7 @@ def latest_sweep(root: Path) -> Path:
     """
     sweeps = [p for p in root.glob("*/*") if p.is_dir() and any(is_job(job) for job in p.iterdir() if job.is_dir())]
     if not sweeps:
-        raise ValueError(f"{root} holds no multirun; give the sweep dir: python -m nsp.report multirun/<name>/<time>")
+        raise BadInput(f"{root} holds no multirun; give the sweep dir: python -m nsp.report multirun/<name>/<time>")
     return max(sweeps, key=lambda p: (p / "multirun.yaml").stat().st_mtime if (p / "multirun.yaml").is_file() else p.stat().st_mtime)
 
 

@@ -1,24 +1,20 @@
 """Structured-config schemas of ``python -m nsp.train``, registered in Hydra's ConfigStore.
 
 Typed fields make a bad value fail at compose time naming its key (``trainer.max_epochs=abc``);
-:func:`misspelt_key` adds the "Did you mean" that Hydra does not give for a misspelt key.
+:func:`check` catches the values types cannot.
 """
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Optional
 
-from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
-from hydra.core.config_store import ConfigStore
-from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.errors import OverrideParseException
 import torch
-from omegaconf import MISSING, OmegaConf
+from hydra.core.config_store import ConfigStore
+from omegaconf import MISSING
 
-import nsp.config  # noqa: F401  (registers the ``brush`` group)
-from nsp.config import BrushConfig
+from nsp.config import BrushConfig  # also registers the ``brush`` group
+from nsp.errors import BadInput
 
 
 @dataclass
@@ -118,35 +114,9 @@ def register_configs() -> None:
     cs.store(group="schema/trainer", name="base", node=TrainerConfig)
 
 
-def misspelt_key(argv: list[str]) -> Optional[str]:
-    """A one-line "Did you mean" message for the first override in a command line whose key is a near
-    miss, else None.
-
-    Only plain ``key=value`` overrides are checked (``+``/``++``/``~`` deliberately add or remove keys);
-    anything else wrong is left to Hydra's own messages.
-    """
-    try:
-        overrides = OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
-    except OverrideParseException:
-        return None
-    # Every key any composition can have: the dual renderer's keys are a superset of the others'.
-    tree = OmegaConf.to_container(OmegaConf.structured(TrainConfig(renderer=DualConfig(), brush=BrushConfig(MISSING))))
-    for override in overrides:
-        key = override.key_or_group
-        if override.is_add() or override.is_force_add() or override.is_delete() or key.split(".")[0] == "hydra":
-            continue
-        node = tree
-        for depth, part in enumerate(key.split(".")):
-            if not isinstance(node, dict):
-                break
-            if part not in node:
-                close = difflib.get_close_matches(part, list(node), n=1)
-                if not close:
-                    break
-                where = ".".join(key.split(".")[:depth] + [close[0]])
-                return f"Could not override '{key}': no such key. Did you mean '{where}'?"
-            node = node[part]
-    return None
+def key_tree() -> TrainConfig:
+    """Every key a training config can have (the dual renderer's keys are a superset of the others')."""
+    return TrainConfig(renderer=DualConfig(), brush=BrushConfig(MISSING))
 
 
 ACCELERATORS = ("cpu", "gpu", "cuda", "mps", "auto")
@@ -158,24 +128,24 @@ def check(cfg: Any) -> None:
     data, model = cfg.data, cfg.model
     for key in ("batch_size", "epoch_size", "val_size", "test_size"):
         if data[key] < 1:
-            raise ValueError(f"data.{key}={data[key]}: expected a positive number of strokes")
+            raise BadInput(f"data.{key}={data[key]}: expected a positive number of strokes")
     if data.epoch_size < data.batch_size:
-        raise ValueError(f"data.epoch_size={data.epoch_size} is less than one batch (data.batch_size={data.batch_size})")
+        raise BadInput(f"data.epoch_size={data.epoch_size} is less than one batch (data.batch_size={data.batch_size})")
     if data.num_workers < 0:
-        raise ValueError(f"data.num_workers={data.num_workers}: expected 0 (render in the training process) or more")
+        raise BadInput(f"data.num_workers={data.num_workers}: expected 0 (render in the training process) or more")
     if model.channel_mult <= 0:
-        raise ValueError(f"model.channel_mult={model.channel_mult}: expected a positive channel-width multiplier (1 = the paper's)")
+        raise BadInput(f"model.channel_mult={model.channel_mult}: expected a positive channel-width multiplier (1 = the paper's)")
     if cfg.renderer.size != model.size:
-        raise ValueError(f"renderer.size={cfg.renderer.size} differs from model.size={model.size}: set model.size, "
+        raise BadInput(f"renderer.size={cfg.renderer.size} differs from model.size={model.size}: set model.size, "
                          f"the renderer and the training strokes follow it")
     if model.optimizer.get("lr", 1) <= 0:
-        raise ValueError(f"model.optimizer.lr={model.optimizer.lr}: expected a positive learning rate")
+        raise BadInput(f"model.optimizer.lr={model.optimizer.lr}: expected a positive learning rate")
     accelerator = cfg.trainer.accelerator
     if accelerator not in ACCELERATORS:
-        raise ValueError(f"trainer.accelerator={accelerator}: expected one of {', '.join(ACCELERATORS)}")
+        raise BadInput(f"trainer.accelerator={accelerator}: expected one of {', '.join(ACCELERATORS)}")
     if accelerator in ("gpu", "cuda") and not torch.cuda.is_available():
-        raise ValueError(f"trainer.accelerator={accelerator}: this machine has no CUDA GPU; use trainer.accelerator=cpu")
+        raise BadInput(f"trainer.accelerator={accelerator}: this machine has no CUDA GPU; use trainer.accelerator=cpu")
     if cfg.threads is not None and cfg.threads < 1:
-        raise ValueError(f"threads={cfg.threads}: expected a positive number of threads, or null for torch's default")
+        raise BadInput(f"threads={cfg.threads}: expected a positive number of threads, or null for torch's default")
     if cfg.trainer.max_steps < -1 or cfg.trainer.max_steps == 0:
-        raise ValueError(f"trainer.max_steps={cfg.trainer.max_steps}: expected a positive number of steps, or -1 (no limit)")
+        raise BadInput(f"trainer.max_steps={cfg.trainer.max_steps}: expected a positive number of steps, or -1 (no limit)")
