@@ -11,6 +11,7 @@ Each is ``task(cfg, **arguments) -> metrics`` on ``nsp.paint``'s config: ``brush
 """
 from __future__ import annotations
 
+import itertools
 import time
 from pathlib import Path
 
@@ -22,12 +23,13 @@ from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
 from torchvision.utils import make_grid
 
-from nsp.io.export import write_json
 from nsp.brushes import Brush, get_brush
 from nsp.engine import composite, paint_canvas, parse_color, render
 from nsp.errors import BadInput
-from nsp.io.export import write_png
+from nsp.io.export import write_json, write_png
+from nsp.painter.images import psnr
 from nsp.painter.losses import PaintLoss
+from nsp.painter.optimize import optimize_strokes
 from nsp.painter.renderer import AnalyticRenderer, load_neural
 
 ON_TARGET = 0.05  # a pushed stroke whose centre ends this close to its target's (canvas widths) converged
@@ -106,32 +108,28 @@ def optimize(out: Path, steps: int, x: Tensor, loss: PaintLoss, optimizer, draw,
     Logs the loss terms per step to TensorBoard under ``out`` and ``watch(x) -> {name: value}`` every
     ``every`` steps; returns the canvases at steps 0, ¼, ½, ¾ and the end (for the figures).
     """
-    frames = []
     marks = {round(steps * f) for f in (0, 0.25, 0.5, 0.75, 1)}
+    frames, counter = [], itertools.count()
     with SummaryWriter(out / "tensorboard") as writer:
-        for step in range(steps + 1):
-            canvas = draw(x)
+        def observe(canvas: Tensor) -> None:
+            step = next(counter)
             if step in marks:
                 frames.append(canvas.detach())
             if watch is not None and (step % every == 0 or step == steps):
                 for name, value in watch(x.detach()).items():
                     writer.add_scalar(name, value, step)
-            if step == steps:
-                break
-            losses = loss(canvas, target)
-            optimizer.zero_grad()
-            losses["total"].backward()
-            optimizer.step()
-            with torch.no_grad():
-                x.clamp_(0, 1)
+
+        def objective() -> tuple[Tensor, dict[str, Tensor]]:
+            canvas = draw(x)
+            observe(canvas)
+            return canvas, loss(canvas, target)
+
+        for step, (_, losses) in enumerate(optimize_strokes(x, optimizer, steps, objective)):
             for name, value in losses.items():
-                writer.add_scalar(f"loss/{name}", float(value.detach()), step)  # the loss of the canvas at ``step``
+                writer.add_scalar(f"loss/{name}", value, step)  # the loss of the canvas at ``step``
+        with torch.no_grad():
+            observe(draw(x))
     return frames
-
-
-def psnr(a: Tensor, b: Tensor) -> Tensor:
-    """(B, 3, H, W) pairs in [0, 1] -> (B,) PSNR in dB."""
-    return -10 * torch.log10(((a - b) ** 2).mean((1, 2, 3)).clamp_min(1e-10))
 
 
 def push(cfg: DictConfig, trials: int = 8, steps: int = 150, gap: float = 0.45,

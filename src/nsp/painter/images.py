@@ -1,4 +1,5 @@
-"""Target photos: a file, or one of the photos that ship with scikit-image / scikit-learn."""
+"""Photos: loading (a file, or one of the photos that ship with scikit-image / scikit-learn),
+resizing, and comparing (PSNR)."""
 from __future__ import annotations
 
 from contextlib import contextmanager
@@ -139,3 +140,8 @@ def resize(image: Tensor, size: int | tuple[int, int]) -> Tensor:
     if shape == tuple(image.shape[-2:]):
         return image
     return F.interpolate(image[None], size=shape, mode="bilinear", antialias=True, align_corners=False)[0].clamp(0, 1)
+
+
+def psnr(a: Tensor, b: Tensor) -> Tensor:
+    """PSNR in dB of images in [0, 1], (…, C, H, W) pairs -> (…,)."""
+    return -10 * torch.log10(((a - b) ** 2).mean((-3, -2, -1)).clamp_min(1e-10))

@@ -17,6 +17,7 @@ from torch.optim import Optimizer
 from nsp.brushes import Brush
 from nsp.engine import composite, paint_canvas, parse_color
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids
+from nsp.painter.optimize import optimize_strokes
 from nsp.painter.placement import place_strokes
 
 
@@ -138,19 +139,13 @@ class Painter:
             if not self.steps_per_stroke:
                 with torch.no_grad():
                     current = self._blend(x[:, : k + 1], painted[:, : k + 1], under, goal, weights, size)
-            for _ in range(self.steps_per_stroke):
+
+            def objective(k: int = k) -> tuple[Tensor, dict[str, Tensor]]:
                 out = self._blend(x[:, : k + 1], painted[:, : k + 1], under, goal, weights, size)
-                losses = self.loss(out, goal)
-                optimizer.zero_grad()
-                losses["total"].backward()
-                if self.frozen:
-                    x.grad[..., self.frozen] = 0
-                optimizer.step()
-                with torch.no_grad():
-                    x.clamp_(0, 1)
-                current = out.detach()
+                return out, self.loss(out, goal)
+
+            for current, scalars in optimize_strokes(x, optimizer, self.steps_per_stroke, objective, self.frozen):
                 self.step += 1
-                scalars = {name: float(value.detach()) for name, value in losses.items()}
                 for callback in self.callbacks:
                     callback.on_step(self, self.step, scalars)
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
