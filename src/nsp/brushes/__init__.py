@@ -1,32 +1,7 @@
-"""The four brushes of the paper (§3.1, appendix tables). Adding a brush: one module here and one line below."""
-from __future__ import annotations
-
-import dataclasses
-
+"""The four brushes of the paper (§3.1, appendix tables): each module holds one brush's parameter
+spec, rendering (signed distance, shading) and formats (SVG element, reference .npz conversion);
+:mod:`~nsp.brushes.registry` names them all."""
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.markerpen import MARKERPEN
-from nsp.brushes.oilpaint import OILPAINT
-from nsp.brushes.tape import TAPE, TRANSLUCENT_TAPE
-from nsp.brushes.texture import load_texture
-from nsp.brushes.watercolor import WATERCOLOR
-from nsp.errors import BadInput
-
-BRUSHES: dict[str, Brush] = {b.name: b for b in (OILPAINT, WATERCOLOR, MARKERPEN, TAPE)}
-VARIANTS = (TRANSLUCENT_TAPE,)  # brushes of the same name with other parameters, met in stroke files
-
-
-def get_brush(name: str, texture: str | None = None, params: list[str] | None = None) -> Brush:
-    """The brush called ``name``; ``texture`` is a grayscale image path for ``oilpaint``; ``params``,
-    the parameter names a stroke file lists, pick a variant that has exactly those."""
-    if name not in BRUSHES:
-        raise BadInput(f"unknown brush '{name}', expected one of: {', '.join(BRUSHES)}")
-    brush = next((b for b in VARIANTS if b.name == name and list(b.params) == params), BRUSHES[name])
-    if texture is not None:
-        if name != "oilpaint":
-            raise BadInput(f"brush.texture applies to oilpaint only, not '{name}'")
-        load_texture(texture)  # a bad file fails here, before any work
-        brush = dataclasses.replace(brush, texture_path=str(texture), _cache={})
-    return brush
-
+from nsp.brushes.registry import BRUSHES, VARIANTS, get_brush
 
 __all__ = ["BRUSHES", "VARIANTS", "Brush", "Pixels", "get_brush"]

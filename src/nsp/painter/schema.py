@@ -16,13 +16,14 @@ from nsp.style import BACKBONES
 # Typed choices: Hydra rejects any other value when it composes, listing these.
 StyleMode = StrEnum("StyleMode", {mode: mode for mode in MODES})
 Backbone = StrEnum("Backbone", {name: name for name in BACKBONES})
+RendererName = StrEnum("RendererName", {name: name for name in ("analytic", "neural")})
 
 
 @dataclass
 class RendererConfig:
     """``renderer=analytic`` (the soft vector engine) or ``renderer=neural`` (an ``nsp.train`` checkpoint)."""
 
-    name: str = "analytic"
+    name: RendererName = RendererName.analytic
     softness: float = 0.5  # analytic: edge width in block pixels
     block_size: int = 64  # analytic: blocks are optimized at most this many pixels wide
     checkpoint: Optional[str] = None  # neural: path of the checkpoint (required)

@@ -13,14 +13,18 @@ import torch
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
-from nsp.config import BrushConfig  # also registers the ``brush`` group
+from nsp.config import CONF, BrushConfig  # also registers the ``brush`` group
 from nsp.errors import BadInput
+
+
+# The ``renderer`` group's options; Hydra rejects any other ``renderer.name`` at compose time.
+RendererName = StrEnum("RendererName", {path.stem: path.stem for path in sorted((CONF / "train" / "renderer").glob("*.yaml"))})
 
 
 @dataclass
 class RendererConfig:
     _target_: str = MISSING
-    name: str = MISSING  # the ``renderer`` group choice: keys ``lr_by_renderer`` and names the run in its metrics
+    name: RendererName = MISSING  # the group choice: keys ``lr_by_renderer`` and names the run in its metrics
     size: int = "${model.size}"  # type: ignore[assignment]
     channel_mult: float = "${model.channel_mult}"  # type: ignore[assignment]
 

@@ -1,0 +1,57 @@
+"""The report of a multirun, a folder of runs or one run: ``report.md``, ``report.csv``, plots."""
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+from nsp.reporting.collect import Job, collect, common_overrides, latest_sweep, swept_keys
+from nsp.reporting.plots import plot_all
+from nsp.reporting.tables import (
+    SEED, chosen_rates, headline, is_renderer_sweep, job_rows, margins, pivot, shown_jobs, to_csv, to_markdown,
+)
+
+
+def write_report(sweep: Path) -> list[Path]:
+    """Write ``report.md``, ``report.csv`` and the plots of the runs in ``sweep`` (a multirun's sweep
+    dir, a folder of run dirs, or one run's dir) into it.
+
+    Returns the files written. Raises ``ValueError`` when ``sweep`` holds no Hydra job.
+    """
+    jobs = collect(sweep)
+    header, rows = job_rows(jobs)
+    (sweep / "report.csv").write_text(to_csv(header, rows))
+    plots = plot_all(jobs, sweep)
+    (sweep / "report.md").write_text(markdown(sweep, jobs, plots))
+    return [sweep / "report.md", sweep / "report.csv", *plots]
+
+
+def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
+    """The report: what ran, the job table; for renderer sweeps the study's pivot, dual's margins and
+    the chosen learning rates; the plots."""
+    statuses = Counter(job.status for job in jobs)
+    counts = ", ".join(f"{n} {status}" for status, n in sorted(statuses.items(), key=lambda item: (item[0] != "completed", -item[1])))
+    lines = [f"# Report: {sweep.name}", "", f"{len(jobs)} job{'s' * (len(jobs) != 1)}: {counts}."]
+    header, rows, shared = shown_jobs(jobs)
+    if common := common_overrides(jobs) | shared:
+        lines += ["", "Every job: " + " ".join(f"`{key}={value}`" for key, value in common.items())]
+    lines += ["", "## Jobs", "", to_markdown(header, rows)]
+    if errors := [job for job in jobs if job.error]:
+        lines += ["Why jobs did not complete:", ""] + [f"- job {job.num}: {job.error}" for job in errors] + [""]
+    trained = [job for job in jobs if job.choice("renderer") is not None]  # a folder may mix paintings in
+    if trained and is_renderer_sweep(trained):
+        jobs = trained
+        seeds = len({job.choice(SEED) for job in jobs}) if SEED in swept_keys(jobs) else 1
+        spread = f"mean ± std over {seeds} seeds" if seeds > 1 else "one seed"
+        split = "validation" if headline(jobs) == "val/psnr" else "test"
+        lines += [f"## Final {headline(jobs)} (dB) by renderer and brush", "",
+                  f"PSNR on the {split} strokes, {spread}. Paper: Table 1 (128 px) where it gives a figure;"
+                  " Fig. 9 gives curves only.", "", to_markdown(*pivot(jobs))]
+        if table := margins(jobs):
+            lines += ["## Dual's margin (dB)", "", f"dual minus each renderer, {spread} of the paired difference"
+                      " (same seed, same training strokes).", "", to_markdown(*table)]
+        if table := chosen_rates(jobs):
+            lines += ["## Learning rate per renderer", "",
+                      "Validation PSNR averaged over brushes; `chosen` is the best.", "", to_markdown(*table)]
+    if plots:
+        lines += ["## Plots", ""] + [f"![{path.stem}]({path.name})" for path in plots] + [""]
+    return "\n".join(lines)

@@ -1,0 +1,179 @@
+"""A training run (paper §3.2, §4): ``train(cfg)`` fits the renderer a composed ``nsp.train`` config
+describes (``output_dir`` set; no Hydra needed) and writes checkpoints, TensorBoard events and
+``metrics.json``."""
+from __future__ import annotations
+
+import logging
+import time
+import warnings
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator, Sequence
+
+import pytorch_lightning as L
+import torch
+from hydra.utils import instantiate
+from pytorch_lightning.callbacks import Callback, LearningRateMonitor, ModelCheckpoint
+from pytorch_lightning.utilities.exceptions import SIGTERMException
+from omegaconf import DictConfig, OmegaConf
+
+from nsp.io.export import write_json
+from nsp.renderers.checkpoint import check_checkpoint
+from nsp.training.data import StrokeData
+from nsp.training.logger import RunLogger
+from nsp.training.module import RendererModule
+from nsp.training.progress import StepProgressBar
+from nsp.training.schema import check
+
+METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha")
+
+
+class SaveOnInterrupt(Callback):
+    """Saves a resumable checkpoint when training is interrupted (Ctrl-C, SIGTERM).
+
+    Lightning's ``OnExceptionCheckpoint`` does too, but also turns every ``fit`` into a resume from the
+    last checkpoint it finds.
+    """
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def on_exception(self, trainer: L.Trainer, pl_module: L.LightningModule, exception: BaseException) -> None:
+        if isinstance(exception, (KeyboardInterrupt, SIGTERMException)):
+            trainer.save_checkpoint(self.path)
+
+
+class ValidateLastStep(Callback):
+    """Makes the step that reaches ``trainer.max_steps`` a validation step, so the final scores and the
+    last point of every ``val/`` curve are one pass.
+
+    Lightning validates at the end of an epoch; a run that reaches ``max_steps`` mid-epoch stops
+    without validating, unless asked to stop (``should_stop``), which validates first.
+    ``step``: the global step of the last validation in ``fit`` (-1 before any).
+    """
+
+    def __init__(self):
+        self.step = -1
+
+    def on_train_batch_end(self, trainer: L.Trainer, *args) -> None:
+        if trainer.global_step == trainer.max_steps:
+            trainer.should_stop = True
+
+    def on_validation_end(self, trainer: L.Trainer, pl_module: L.LightningModule) -> None:
+        if not trainer.sanity_checking:
+            self.step = trainer.global_step
+
+
+def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
+    """Train the renderer ``cfg`` describes; write checkpoints, TensorBoard events and ``metrics.json``.
+
+    The final model is scored on the validation strokes (by fit's last validation) and then, once, on
+    the test strokes.
+    ``callbacks`` are added to the trainer's own. Returns the metrics written to ``metrics.json``.
+    Raises ``ValueError`` for a value it cannot train with, before any work; ``KeyboardInterrupt``
+    once an interrupted run (Ctrl-C, SIGTERM) has saved ``checkpoints/last.ckpt`` and its metrics.
+    """
+    check(cfg)
+    if cfg.ckpt_path is not None:
+        check_checkpoint(cfg.ckpt_path, str(cfg.renderer.name), cfg.brush.name, cfg.model.size)
+    with quiet_lightning():
+        return _fit(cfg, callbacks)
+
+
+def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
+    L.seed_everything(cfg.seed, workers=True)
+    if cfg.threads:
+        torch.set_num_threads(cfg.threads)
+    out = Path(cfg.output_dir)
+    data = StrokeData(cfg.brush.name, cfg.model.size, seed=cfg.seed, texture=cfg.brush.texture, **cfg.data)
+    model = RendererModule(
+        renderer=OmegaConf.to_container(cfg.renderer, resolve=True, enum_to_str=True),  # checkpoints hold plain types
+        brush=cfg.brush.name,
+        optimizer=instantiate(cfg.model.optimizer),
+        scheduler=instantiate(cfg.model.scheduler),
+        scheduler_interval=str(cfg.model.scheduler_interval),
+    )
+    logger = RunLogger(out, name="tensorboard", version="", default_hp_metric=False)
+    checkpoints = out / "checkpoints"
+    last_validation = ValidateLastStep()
+    callbacks = [
+        *callbacks,
+        last_validation,
+        # no version counter: a resumed run keeps best.ckpt and last.ckpt current in place
+        ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True,
+                        enable_version_counter=False),
+        SaveOnInterrupt(checkpoints / "last.ckpt"),
+        LearningRateMonitor(),
+    ]
+    if cfg.trainer.enable_progress_bar:
+        callbacks.append(StepProgressBar())
+    # torch's SyncBatchNorm is CUDA-only: on CPU (gloo) each rank keeps its own batch statistics.
+    sync_batchnorm = cfg.trainer.sync_batchnorm and cfg.trainer.accelerator != "cpu"
+    trainer: L.Trainer = instantiate(
+        cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out, sync_batchnorm=sync_batchnorm
+    )
+
+    start = time.perf_counter()
+    try:
+        trainer.fit(model, datamodule=data, ckpt_path=cfg.ckpt_path)
+    except SystemExit:  # Lightning exits after Ctrl-C or SIGTERM, once last.ckpt is saved
+        _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
+        raise KeyboardInterrupt from None
+    trainer.save_checkpoint(checkpoints / "last.ckpt")  # the final step's, also where max_steps ends mid-epoch
+    # The final model's validation scores: fit's last pass, unless that was not of the final model (a run
+    # resumed at its last step trains none; trainer.check_val_every_n_epoch may skip the last epoch).
+    if last_validation.step == trainer.global_step:
+        scores = dict(trainer.callback_metrics)
+    else:
+        scores = trainer.validate(model, datamodule=data, verbose=False)[0]
+    scores |= trainer.test(model, datamodule=data, verbose=False)[0]
+    return _finish(trainer, logger, cfg, scores, start, "completed")
+
+
+@contextmanager
+def quiet_lightning() -> Iterator[None]:
+    """Lightning without its noise: its INFO lines (tips, device lines, "fit stopped"), a torch-internal
+    deprecation it triggers, the logging-interval hint of short runs, and the mid-epoch resume
+    warning (StrokeData's sampler resumes mid-epoch exactly). Its other warnings stay."""
+    logs = [logging.getLogger(name) for name in ("pytorch_lightning", "lightning_fabric")]
+    levels = [log.level for log in logs]
+    for log in logs:
+        log.setLevel(logging.WARNING)
+    try:
+        with warnings.catch_warnings():
+            for message in ("You're resuming from a checkpoint that ended before the epoch ended",
+                            r".*isinstance\(treespec, LeafSpec\)", "The number of training batches .* logging interval"):
+                warnings.filterwarnings("ignore", message)
+            yield
+    finally:
+        for log, level in zip(logs, levels):
+            log.setLevel(level)
+
+
+def _finish(trainer: L.Trainer, logger: RunLogger, cfg: DictConfig, scores, start: float, status: str) -> dict:
+    """Write ``metrics.json`` and the HPARAMS entry (the run's settings and final scores); return the metrics."""
+    metrics = {k: round(float(scores[k]), 3) for k in METRICS if k in scores} | {
+        "steps": trainer.global_step,
+        "seconds": round(time.perf_counter() - start, 1),
+        "renderer": str(cfg.renderer.name),
+        "brush": cfg.brush.name,
+        "size": cfg.model.size,
+        "lr": cfg.model.optimizer.get("lr"),
+        "seed": cfg.seed,
+        "status": status,
+    }
+    if trainer.is_global_zero:
+        logger.log_run(_settings(cfg), [k for k in METRICS if k in metrics])
+        write_json(Path(cfg.output_dir) / "metrics.json", metrics)
+    return metrics
+
+
+def _settings(cfg: DictConfig) -> dict:
+    """The run's key settings, as the HPARAMS tab lists them."""
+    scheduler = cfg.model.scheduler
+    return {
+        "renderer": str(cfg.renderer.name), "brush": cfg.brush.name, "size": cfg.model.size, "channel_mult": cfg.model.channel_mult,
+        "batch_size": cfg.data.batch_size, "epoch_size": cfg.data.epoch_size, "max_steps": cfg.trainer.max_steps,
+        "lr": cfg.model.optimizer.get("lr"), "lr_schedule": scheduler._target_.rsplit(".", 1)[-1] if scheduler else "constant",
+        "seed": cfg.seed,
+    }
