@@ -4,7 +4,7 @@ VENV    ?= .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 ARCH    := $(shell uname -m)
-# The torch/torchvision pair that installs from this machine's disk (SPEC, DEVELOPERS).
+# The torch/torchvision pair these machines install from their own disk (no internet beyond the package registries).
 ifeq ($(ARCH),x86_64)
 TORCH   := torch==2.14.1 torchvision==0.29.1
 else
