@@ -34,7 +34,8 @@ bench: setup
 	$(BIN)/python benchmarks/engine.py
 	$(BIN)/python benchmarks/transport.py
 	$(BIN)/python benchmarks/training.py
-	$(BIN)/python benchmarks/painter.py
+	$(BIN)/python benchmarks/painter.py --photos astronaut --strokes 500  # the full grid: no options (hours on 2 cores)
+	$(BIN)/python benchmarks/help.py
 
 clean:
 	rm -rf $(VENV) outputs/demo .pytest_cache

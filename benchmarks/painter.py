@@ -1,13 +1,14 @@
-"""Painter: wall time and quality of ``python -m nsp.paint`` per brush and stroke count, and the
-renderers' time per optimizer step.
+"""Painter: quality and wall time of ``python -m nsp.paint`` per photo, brush and stroke count.
 
-Each painting is a fresh ``python -m nsp.paint image=astronaut brush=B strokes=N`` process (defaults
-otherwise), so its wall time includes start-up, imports and writing every file; PSNR and SSIM are
-from its metrics.json (256-px long side). The step times paint one level of 5×5 blocks with 6
-strokes each (the finest levels' shape) and divide by the steps taken. Prints markdown and writes
-the "Painter" section of docs/benchmarks.md.
+Each painting is a fresh ``python -m nsp.paint image=P brush=B strokes=N`` process (defaults
+otherwise), timed end to end (start-up, painting, every file written). Scores compare final.png
+with the photo, both box-downsampled to a 256-px long side: PSNR and SSIM (torchmetrics), LPIPS
+only where its weights are already on this machine (nothing is downloaded), and for astronaut the
+PSNR of the face (rows 35–115, cols 75–155). Writes the "Painter: photos, brushes, budgets" section
+of docs/benchmarks.md, docs/img/painter_psnr.png (PSNR against strokes) and docs/img/painter_<brush>.png (the paintings at
+each budget).
 
-    python benchmarks/painter.py [--brushes oilpaint ...] [--strokes 200 500 1000]
+    python benchmarks/painter.py [--photos astronaut chelsea] [--brushes oilpaint] [--strokes 200 500]
 """
 from __future__ import annotations
 
@@ -17,95 +18,162 @@ import subprocess
 import sys
 import tempfile
 import time
-from functools import partial
 from pathlib import Path
 
+import numpy as np
 import torch
+import torch.nn.functional as F
+from PIL import Image
 
-from nsp.brushes import BRUSHES, get_brush
-from nsp.painter.images import load_image, resize
-from nsp.painter.losses import PaintLoss
-from nsp.painter.schema import LossConfig
-from nsp.painter.painter import Painter
-from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
-from nsp.renderers import build
+from nsp.brushes import BRUSHES
+from nsp.painter.images import BUILTIN, load_image
 
 sys.path.insert(0, str(Path(__file__).parent))
-from doc import machine, write_section  # noqa: E402
+from doc import DOC, machine, write_section  # noqa: E402
 
-REFERENCE = "The reference implementation's progressive painter (495 oil strokes, 32-px renderer, 512-px output) took 417 s on this machine."
+FACE = (slice(35, 115), slice(75, 155))  # astronaut's face in the 256-px image
+IMAGES = DOC.parent / "img"
 
 
-def paint_once(brush: str, strokes: int, out: Path) -> dict:
-    """Wall seconds of one ``python -m nsp.paint`` process and its metrics."""
+def box256(image: torch.Tensor) -> torch.Tensor:
+    """(3, H, W) -> long side 256 by averaging whole boxes (H, W multiples of the factor)."""
+    factor = max(image.shape[-2:]) // 256
+    return F.avg_pool2d(image[None], factor)[0] if factor > 1 else image
+
+
+ALEXNET = "alexnet-owt-7be5be79.pth"  # the torchvision weights torchmetrics' LPIPS loads
+
+
+def lpips_metric():
+    """torchmetrics' LPIPS if its backbone's weights are already in the torch hub cache, else None
+    (checked first: constructing it would otherwise try to download them)."""
+    if not (Path(torch.hub.get_dir()) / "checkpoints" / ALEXNET).is_file():
+        return None
+    try:
+        from torchmetrics.image.lpip import LearnedPerceptualImagePatchSimilarity
+
+        return LearnedPerceptualImagePatchSimilarity(net_type="alex", normalize=True)
+    except Exception:  # missing package or weights: never download
+        return None
+
+
+def paint_once(photo: str, brush: str, strokes: int, out: Path) -> dict:
+    """Wall seconds of one ``python -m nsp.paint`` process and its painting (3, h, w)."""
     start = time.perf_counter()
     result = subprocess.run(
-        [sys.executable, "-m", "nsp.paint", f"brush={brush}", f"strokes={strokes}", "progress=false",
-         f"hydra.run.dir={out}"],
-        capture_output=True, text=True,
-    )
+        [sys.executable, "-m", "nsp.paint", f"image={photo}", f"brush={brush}", f"strokes={strokes}",
+         "progress=false", f"hydra.run.dir={out}"], capture_output=True, text=True)
     wall = time.perf_counter() - start
     if result.returncode:
         raise RuntimeError(result.stderr)
-    return json.loads((out / "metrics.json").read_text()) | {"wall": wall}
+    final = torch.from_numpy(np.array(Image.open(out / "final.png").convert("RGB"))).permute(2, 0, 1).float() / 255
+    return {"wall": wall, "final": final}
 
 
-def seconds_per_step(renderer, brush_name: str, steps: int = 4) -> tuple[float, int]:
-    """One level of 5×5 blocks × 6 strokes on the 256-px astronaut at ``steps`` steps per stroke:
-    seconds per optimizer step, and the block side in pixels the renderer works at."""
-    brush = get_brush(brush_name)
-    target = resize(load_image("astronaut"), 256)
-    painter = Painter(brush, renderer, PaintLoss.from_config(LossConfig()), partial(torch.optim.RMSprop, lr=0.003), grids=[5],
-                      steps_per_stroke=steps)
-    painter.paint(target, 25)  # warm-up: first-call costs (the optimizer's imports, the texture)
-    start = time.perf_counter()
-    painter.paint(target, 150)
-    return (time.perf_counter() - start) / painter.step, renderer.resolution(painter.levels(150, 256, 256)[0].side)
+def scores(final: torch.Tensor, photo: torch.Tensor, face: bool, lpips) -> dict:
+    from torchmetrics.functional.image import peak_signal_noise_ratio, structural_similarity_index_measure
+
+    a, b = box256(final), box256(photo)
+    if a.shape != b.shape:
+        a = F.interpolate(a[None], size=b.shape[-2:], mode="area")[0]
+    out = {"psnr": float(peak_signal_noise_ratio(a[None], b[None], data_range=1.0)),
+           "ssim": float(structural_similarity_index_measure(a[None], b[None], data_range=1.0))}
+    if face:
+        out["face"] = float(peak_signal_noise_ratio(a[None, :, *FACE], b[None, :, *FACE], data_range=1.0))
+    if lpips is not None:
+        out["lpips"] = float(lpips(a[None].clamp(0, 1), b[None].clamp(0, 1)))
+    out["image"] = a
+    return out
+
+
+def plot(results: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for key in sorted({(r["photo"], r["brush"]) for r in results}):
+        rows = sorted((r for r in results if (r["photo"], r["brush"]) == key), key=lambda r: r["strokes"])
+        ax.plot([r["strokes"] for r in rows], [r["psnr"] for r in rows], marker="o", label=" ".join(key))
+    ax.set_xscale("log")
+    ax.set_xlabel("strokes")
+    ax.set_ylabel("PSNR (dB), 256 px")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def grid(results: list[dict], brush: str, path: Path) -> None:
+    """Rows: photos; columns: stroke budgets, then the photo."""
+    photos = sorted({r["photo"] for r in results if r["brush"] == brush})
+    budgets = sorted({r["strokes"] for r in results if r["brush"] == brush})
+    cell = 192
+    sheet = Image.new("RGB", (cell * (len(budgets) + 1), cell * len(photos)), "white")
+    for i, photo in enumerate(photos):
+        for j, strokes in enumerate(budgets):
+            for r in results:
+                if (r["photo"], r["brush"], r["strokes"]) == (photo, brush, strokes):
+                    sheet.paste(_thumb(r["image"], cell), (j * cell, i * cell))
+        sheet.paste(_thumb(box256(load_image(photo)), cell), (len(budgets) * cell, i * cell))
+    sheet.save(path)
+
+
+def _thumb(image: torch.Tensor, cell: int) -> Image.Image:
+    pixels = (image.clamp(0, 1).permute(1, 2, 0).numpy() * 255).round().astype(np.uint8)
+    thumb = Image.fromarray(pixels)
+    thumb.thumbnail((cell, cell))
+    return thumb
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--photos", nargs="+", default=list(BUILTIN))
     parser.add_argument("--brushes", nargs="+", default=list(BRUSHES))
-    parser.add_argument("--strokes", nargs="+", type=int, default=[200, 500, 1000])
+    parser.add_argument("--strokes", nargs="+", type=int, default=[200, 500, 1000, 3000, 5000])
+    parser.add_argument("--date", default=time.strftime("%Y-%m-%d"))
     args = parser.parse_args()
-    torch.set_num_threads(1)  # as nsp.paint's default
-
-    rows = ["| brush | strokes | wall (s) | PSNR (dB) | SSIM |", "|---|---:|---:|---:|---:|"]
+    torch.set_num_threads(1)
+    lpips = lpips_metric()
+    results = []
+    header = "| photo | brush | strokes | wall (s) | PSNR (dB) | face PSNR (dB) | SSIM |" + (" LPIPS |" if lpips else "")
+    rows = [header, "|---|---|---:|---:|---:|---:|---:|" + ("---:|" if lpips else "")]
     with tempfile.TemporaryDirectory() as tmp:
-        for brush in args.brushes:
-            for strokes in args.strokes:
-                m = paint_once(brush, strokes, Path(tmp) / f"{brush}_{strokes}")
-                rows.append(f"| {brush} | {strokes} | {m['wall']:.1f} | {m['psnr']:.2f} | {m['ssim']:.3f} |")
-                print(rows[-1], flush=True)
-
-    steps = ["| renderer | block pixels | s / step |", "|---|---:|---:|"]
-    renderers = [("analytic (soft engine)", AnalyticRenderer(get_brush("oilpaint"), softness=0.5, block_size=64))]
-    for size in (32, 64, 128):
-        network = build({"_target_": "nsp.renderers.DualPathway", "size": size, "width": 1.0}, "oilpaint")
-        renderers.append(("neural (dual, width 1)", NeuralRenderer(network, size)))
-    for name, renderer in renderers:
-        seconds, pixels = seconds_per_step(renderer, "oilpaint")
-        steps.append(f"| {name} | {pixels} | {seconds:.3f} |")
-        print(steps[-1], flush=True)
-
+        for photo in args.photos:
+            full = load_image(photo)
+            for brush in args.brushes:
+                for strokes in args.strokes:
+                    run = paint_once(photo, brush, strokes, Path(tmp) / f"{photo}_{brush}_{strokes}")
+                    s = scores(run["final"], full, photo == "astronaut", lpips)
+                    results.append({"photo": photo, "brush": brush, "strokes": strokes, "wall": run["wall"]} | s)
+                    face = f"{s['face']:.2f}" if "face" in s else "—"
+                    rows.append(f"| {photo} | {brush} | {strokes} | {run['wall']:.1f} | {s['psnr']:.2f} | {face} | "
+                                f"{s['ssim']:.3f} |" + (f" {s['lpips']:.3f} |" if lpips else ""))
+                    print(rows[-1], flush=True)
+    IMAGES.mkdir(parents=True, exist_ok=True)
+    plot(results, IMAGES / "painter_psnr.png")
+    for brush in args.brushes:
+        grid(results, brush, IMAGES / f"painter_{brush}.png")
+    command = "python benchmarks/painter.py " + " ".join(
+        f"--{name} {' '.join(map(str, value))}" for name, value in
+        (("photos", args.photos), ("brushes", args.brushes), ("strokes", args.strokes)))
     body = "\n".join([
-        "`python -m nsp.paint image=astronaut brush=B strokes=N`, defaults otherwise (analytic renderer, L1 loss, "
-        "progressive schedule, 256-px working canvas, 1024-px final.png), one process per painting: wall time "
-        "includes start-up and writing every file. PSNR and SSIM against the photo at a 256-px long side. "
-        + REFERENCE,
+        "`python -m nsp.paint image=P brush=B strokes=N`, defaults otherwise, one process per painting: wall time "
+        "includes start-up and writing every file. final.png and the photo are both box-downsampled to a 256-px "
+        "long side; PSNR and SSIM by torchmetrics; face PSNR: astronaut's rows 35–115, cols 75–155. "
+        + ("LPIPS (AlexNet) from local weights." if lpips else "LPIPS: skipped, its weights are not on this machine "
+           "(nothing is downloaded)."),
         "",
-        "Command: `python benchmarks/painter.py`  ",
-        f"Machine: {machine()} (shared with other work while measured)",
+        f"Command: `{command}`  ",
+        f"Machine: {machine()}, no GPU, shared with other work while measured; {args.date}",
         "",
         *rows,
         "",
-        "Time per optimizer step of one level of 5×5 blocks with 6 active strokes each (oilpaint, RMSprop, L1); "
-        "the neural renderer is the paper's dual-pathway network at full width (untrained weights time the same). "
-        "Adding `loss=l1_ot` costs a 48×48 Sinkhorn per block and colour channel on top (see Transport loss).",
-        "",
-        *steps,
+        "PSNR against strokes: `docs/img/painter_psnr.png`; paintings at each budget (rows: photos, last column the "
+        "photo): " + ", ".join(f"`docs/img/painter_{b}.png`" for b in args.brushes) + ".",
     ])
-    write_section("Painter", body)
+    write_section("Painter: photos, brushes, budgets", body)
     print(body)
 
 

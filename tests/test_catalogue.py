@@ -68,6 +68,8 @@ PAINT = [  # (case id, overrides, words the one line must contain)
     ("threads negative", ["threads=-1"], "threads=-1"),
     ("key misspelt", ["strokse=3"], "Did you mean 'strokes'"),
     ("nested key misspelt", ["schedule.max_per_blok=3"], "Did you mean 'schedule.max_per_block'"),
+    ("growth below one", ["schedule.growth=0.5"], "schedule.growth=0.5"),
+    ("crowd below one", ["schedule.crowd=0"], "schedule.crowd=0"),
     ("experiment unknown", ["experiment=nope"], "experiment=nope"),
     ("unreadable override", ["strokes=[1,"], "strokes=[1,"),
     ("run dir holds a run", ["hydra.run.dir={previous}"], "already holds a run"),

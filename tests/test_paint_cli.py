@@ -18,6 +18,7 @@ from nsp.brushes import BRUSHES
 from nsp.io.strokes import load_strokes
 from nsp.errors import BadInput
 from nsp.painter.run import paint
+from nsp.painter.schema import PaintConfig  # noqa: F401  (registers ``paint_schema`` and the ``brush`` group)
 
 CONF = Path(__file__).parents[1] / "conf" / "paint"
 TINY = ["strokes=12", "work_size=48", "render_size=96", "animation_size=48", "animation_frames=4", "progress=false",
@@ -57,8 +58,46 @@ def test_a_painting_leaves_every_file_valid(photo, tmp_path):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
     events = EventAccumulator(str(out / "tensorboard")).Reload()
-    assert {"loss/l1", "loss/total"} <= set(events.Tags()["scalars"])
-    assert "canvas" in events.Tags()["images"]
+    assert set(events.Tags()["scalars"]) == {"loss/l1", "level/psnr", "final/psnr", "final/ssim"}  # total = l1 here
+    assert set(events.Tags()["images"]) == {"canvas", "target"}
+    levels = [e.step for e in events.Scalars("level/psnr")]
+    assert [e.step for e in events.Images("canvas")] == levels and levels[-1] == events.Scalars("loss/l1")[-1].step
+    assert events.Scalars("final/psnr")[-1].value == pytest.approx(metrics["psnr"])
+    from tensorboard.plugins.hparams.plugin_data_pb2 import HParamsPluginData
+
+    run = HParamsPluginData.FromString(events.PluginTagToContent("hparams")["_hparams_/session_start_info"])
+    assert run.session_start_info.hparams["brush"].string_value == "watercolor"
+    assert run.session_start_info.hparams["strokes"].number_value == 12
+
+
+def test_the_total_loss_is_logged_only_beside_two_terms_or_more():
+    from nsp.painter.callbacks import TensorBoard
+
+    class Writer:
+        def __init__(self):
+            self.scalars = []
+
+        def add_scalar(self, tag, value, step):
+            self.scalars.append(tag)
+
+        def add_image(self, tag, image, step):
+            pass
+
+    writer = Writer()
+    board = TensorBoard(writer, torch.zeros(3, 4, 4))
+    board.on_step(None, 1, {"l1": 0.5, "total": 0.5})
+    board.on_step(None, 2, {"l1": 0.5, "ot": 0.1, "total": 0.51})
+    assert writer.scalars == ["loss/l1", "loss/l1", "loss/ot", "loss/total"]
+
+
+def test_animation_frames_add_the_same_strokes_each_or_one_a_stroke():
+    from nsp.io.export import frame_ends
+
+    assert frame_ends(500, 100) == list(range(0, 501, 5))
+    assert frame_ends(12, 5) == [0, 3, 6, 9, 12]
+    assert frame_ends(7, 3) == [0, 3, 6, 7]  # the last frame adds what is left
+    assert frame_ends(4, None) == [0, 1, 2, 3, 4]
+    assert frame_ends(0, 100) == [0]
 
 
 def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeypatch):

@@ -91,6 +91,18 @@ def test_a_signalled_painting_keeps_what_it_painted_and_exits_interrupted(signal
     assert not list(tmp_path.glob("*.tmp*"))
 
 
+def test_a_painting_shows_each_line_once_and_keeps_them_all_in_its_log(tmp_path):
+    run = command("nsp.paint", *TINY_PAINT, f"hydra.run.dir={tmp_path}")
+    out, err = run.communicate(timeout=300)
+    assert run.returncode == 0, err
+    lines = out.strip().splitlines()
+    assert lines[0] == "painting astronaut with 8 oilpaint strokes…" and out.count(lines[0]) == 1  # before torch loads
+    assert lines[1].startswith("writing final.png, strokes.json, painting.svg, animation.gif (9 frames)")
+    assert lines[-1].startswith("painted 8 oilpaint strokes in ") and lines[-1].endswith(f"; {tmp_path}")
+    log = (tmp_path / "paint.log").read_text()
+    assert all(line in log for line in lines)
+
+
 def test_sigterm_on_training_saves_the_stopping_step_and_exits_interrupted(tmp_path):
     run = command("nsp.train", *TINY_TRAIN, "model.channel_mult=0.125", "data.batch_size=8", "data.val_size=16", "data.test_size=16",
                   "trainer.max_steps=100000", "trainer.enable_progress_bar=false", f"hydra.run.dir={tmp_path}")

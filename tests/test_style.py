@@ -1,4 +1,5 @@
-"""Style transfer building blocks (paper §3.5): feature networks, Gram and colour losses."""
+"""Style transfer building blocks (paper §3.5): feature networks, Gram and colour losses, L*a*b*
+colours, the shared recolouring and the measures of a stylized painting."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,17 +12,21 @@ from torchvision.models.vgg import cfgs, make_layers
 
 from nsp.brushes import get_brush
 from nsp.engine import paint_canvas
+from nsp.painter.images import load_image, resize
 from nsp.style import (
+    Recoloring,
     StyleLoss,
     WeightsNotFound,
     gram,
     hub_cache_path,
-    load_style_image,
     random_features,
     sliced_wasserstein,
     style_loss,
     vgg19_features,
 )
+from nsp.style.color import lab_to_rgb, rgb_to_lab
+from nsp.style.measures import HELD_OUT_SEED, coherence, color_distance, luminance_ssim, texture_distance
+from nsp.style.recolor import STRETCH, gaussian_transport
 
 S = 48  # canvas side in pixels: small, so optimization tests stay fast on a CPU
 
@@ -110,7 +115,7 @@ def test_random_backbone_is_deterministic_from_the_seed():
     assert list(random_features(7).parameters()) == []  # frozen: filters are buffers
 
     canvas = torch.rand(1, 3, 32, 32, generator=torch.Generator().manual_seed(1))
-    loss = lambda seed: StyleLoss(images, "random", seed=seed, color_weight=1.0)(canvas)  # noqa: E731
+    loss = lambda seed: StyleLoss(images, "random", seed=seed)(canvas)  # noqa: E731
     assert torch.equal(loss(3), loss(3))
     assert not torch.equal(loss(3), loss(4))
 
@@ -154,40 +159,75 @@ def test_style_loss_falls_while_strokes_are_optimized():
     assert history[-1] < 0.6 * history[0]
 
 
-def test_color_mode_keeps_shapes_and_moves_colours_toward_the_style(astronaut):
-    brush = get_brush("oilpaint")
-    strokes = brush.sample(40, torch.Generator().manual_seed(0))
-    strokes[:, 2:4] = 0.3 + 0.2 * strokes[:, 2:4]  # w, h: strokes that cover most of the canvas
-    color = torch.tensor(brush.color)
-    at = astronaut[:, (strokes[:, 1] * (S - 1)).round().long(), (strokes[:, 0] * (S - 1)).round().long()]
-    strokes[:, color] = at.T.repeat(1, 2)  # a painting of the photo: each stroke its pixel's colour
-    unstyled = paint_canvas(brush, strokes, S, S, softness=1.0)
-
-    grass = texture(data.grass(), tint=(0.35, 0.85, 0.3))
-    style = StyleLoss(grass, backbone="random", seed=0, color_weight=2.0)
-    colors = strokes[:, color].clone().requires_grad_(True)  # colour mode: only these are optimized
-    optimizer = torch.optim.Adam([colors], lr=0.05)
-    for _ in range(30):
-        styled = strokes.index_copy(1, color, colors.clamp(0, 1))
-        canvas = paint_canvas(brush, styled, S, S, softness=1.0)
-        loss = (canvas - astronaut).abs().mean() + 0.5 * style(canvas)
-        optimizer.zero_grad()
-        loss.backward()
-        optimizer.step()
-
-    shape = torch.tensor(brush.shape)
-    assert torch.equal(styled[:, shape], strokes[:, shape])
-    distance = lambda image: sliced_wasserstein(image[None], grass, 256, torch.Generator().manual_seed(1))  # noqa: E731
-    assert distance(canvas.detach()) < 0.5 * distance(unstyled)
-    green = lambda image: (image[1] / image.sum(0)).mean()  # noqa: E731
-    assert green(canvas.detach()) > green(unstyled) + 0.05
-
-
-def test_load_style_image(tmp_path):
+def test_a_style_image_is_read_by_the_one_loader_and_named_in_its_errors(tmp_path):
     Image.fromarray(np.zeros((20, 40, 3), dtype=np.uint8)).save(tmp_path / "style.png")
-    image = load_style_image(tmp_path / "style.png", long_side=32)
-    assert image.shape == (1, 3, 16, 32) and image.dtype == torch.float32
+    image = resize(load_image(str(tmp_path / "style.png"), max_side=32, key="style.image"), 32)
+    assert image.shape == (3, 16, 32) and image.dtype == torch.float32
     (tmp_path / "notes.txt").write_text("not an image")
-    with pytest.raises(ValueError, match="notes.txt") as err:
-        load_style_image(tmp_path / "notes.txt", long_side=32)
+    with pytest.raises(ValueError, match=r"^style\.image=.*notes.txt") as err:
+        load_image(str(tmp_path / "notes.txt"), key="style.image")
     assert "\n" not in str(err.value)
+
+
+def test_lab_matches_reference_values_and_inverts():
+    rgb = torch.tensor([[1.0, 1.0, 1.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    want = torch.tensor([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.5324, 0.8009, 0.6720], [0.3230, 0.7919, -1.0786]])
+    torch.testing.assert_close(rgb_to_lab(rgb), want, atol=2e-4, rtol=0)  # CIE L*a*b* / 100, D65
+    images = torch.rand(2, 3, 8, 8, generator=torch.Generator().manual_seed(0))
+    torch.testing.assert_close(lab_to_rgb(rgb_to_lab(images, dim=1), dim=1), images, atol=1e-5, rtol=0)
+
+
+def test_gaussian_transport_carries_one_covariance_onto_the_other():
+    g = torch.Generator().manual_seed(0)
+    a, b = torch.randn(2, 2, generator=g, dtype=torch.float64), torch.randn(2, 2, generator=g, dtype=torch.float64)
+    source, target = a @ a.T + 0.1 * torch.eye(2, dtype=torch.float64), b @ b.T
+    matrix = gaussian_transport(source, target)
+    torch.testing.assert_close(matrix, matrix.T)
+    torch.testing.assert_close(matrix @ source @ matrix, target)
+
+
+def test_recoloring_moves_chroma_to_the_style_and_lightness_by_the_weight(astronaut):
+    style = texture(data.brick(), tint=(0.9, 0.6, 0.3))[0]
+    lab_p, lab_s = (rgb_to_lab(x.flatten(1), dim=0) for x in (astronaut, style))
+    for weight in (0.0, 0.5, 3.0):
+        recoloring = Recoloring.fit(astronaut, style, weight)
+        t = weight / (1 + weight)
+        assert recoloring.matrix[0, 1:].abs().max() == 0 and recoloring.matrix[1:, 0].abs().max() == 0  # L alone
+        lightness = recoloring.mean_out[0] - recoloring.mean_in[0]
+        assert lightness.item() == pytest.approx(t * (lab_s[0].mean() - lab_p[0].mean()).item(), abs=1e-5)
+        torch.testing.assert_close(recoloring.mean_out[1:], lab_s[1:].mean(1), atol=1e-5, rtol=0)
+        assert torch.linalg.eigvalsh(recoloring.matrix[1:, 1:]).max() <= STRETCH + 1e-6
+    kept = Recoloring.fit(astronaut, style, 0.0)(astronaut, dim=0)  # weight 0: the lightness stays,
+    change = (rgb_to_lab(kept, dim=0)[0] - lab_p[0].reshape(S, S)).abs()
+    assert change.median() < 1e-5 and change.max() < 0.05  # but where sRGB lacks the new chroma, clamping moves it
+    with pytest.raises(ValueError, match="style.weight"):
+        Recoloring.fit(astronaut, style, -1.0)
+
+
+@pytest.mark.parametrize("name", ["tape", "watercolor"])
+def test_recoloring_strokes_changes_colours_alone(astronaut, name):
+    brush = get_brush(name)
+    strokes = brush.sample(16, torch.Generator().manual_seed(0))
+    recoloring = Recoloring.fit(astronaut, texture(data.gravel())[0], 0.5)
+    out = recoloring.strokes(brush, strokes)
+    color = list(brush.color)
+    others = [i for i in range(brush.d) if i not in color]
+    assert torch.equal(out[:, others], strokes[:, others])
+    torch.testing.assert_close(out[:, color[:3]], recoloring(strokes[:, color[:3]]))  # one map for every stroke
+    assert out.min() >= 0 and out.max() <= 1
+
+
+def test_measures_of_a_stylized_painting(astronaut):
+    g = torch.Generator().manual_seed(0)
+    shuffled = astronaut.flatten(1)[:, torch.randperm(S * S, generator=g)].reshape(3, S, S)
+    gravel = texture(data.gravel())[0]
+    assert color_distance(shuffled, astronaut) < 1e-6 < 0.05 < color_distance(gravel, astronaut)
+    assert luminance_ssim(astronaut, astronaut) == pytest.approx(1.0)
+    assert luminance_ssim(shuffled, astronaut) < 0.2
+    alike = coherence(astronaut, astronaut)  # pairs closer than 0.03 stay as close: mean below 0.03
+    assert 0 < alike < 0.03
+    assert coherence(astronaut, (astronaut + 0.2).clamp(max=1) - 0.1) <= alike + 0.01  # one shared shift
+    noisy = (astronaut + 0.1 * torch.randn(astronaut.shape, generator=g)).clamp(0, 1)  # each pixel its own way
+    assert coherence(astronaut, noisy) > 0.1
+    assert texture_distance(gravel, gravel) == 0 and texture_distance(astronaut, gravel) > 0.1
+    assert texture_distance(astronaut, gravel) != texture_distance(astronaut, gravel, seed=HELD_OUT_SEED + 1)

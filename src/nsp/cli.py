@@ -9,19 +9,26 @@ line naming the failed jobs and :data:`FAILED`. ``python -m nsp.report`` lists t
 
 Ctrl-C and SIGTERM (``timeout``, Slurm, ``docker stop``) both interrupt: the work keeps what it had
 and the command exits with :data:`INTERRUPTED`. :class:`RunDirs` keeps every run in a dir of its own.
+
+``--help`` and a command's first line come before anything imports torch (seconds): this module and
+the entry modules import only Hydra at the top.
 """
 from __future__ import annotations
 
 import difflib
 import json
+import logging
 import os
 import signal
 import sys
+import textwrap
 import traceback
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, NoReturn
 
+import hydra
 from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
@@ -31,8 +38,9 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, read_write
 from omegaconf.errors import OmegaConfBaseException
 
+from nsp.config import BRUSH_NAMES, CONF
 from nsp.errors import BadInput
-from nsp.io.export import write_json
+
 
 FAILED = 1  # some work failed (a crash, or jobs of a sweep)
 BAD_INPUT = 2  # nothing started: a value was wrong
@@ -48,6 +56,8 @@ STOPPED = ".interrupted"  # in a sweep's dir: Ctrl-C or SIGTERM reached the swee
 
 def record(out: Path, status: str, error: str) -> None:
     """Write the job's ``metrics.json`` where the work did not: its status and the one-line reason."""
+    from nsp.io.export import write_json
+
     out.mkdir(parents=True, exist_ok=True)
     if status == "failed" or not (out / "metrics.json").is_file():
         write_json(out / "metrics.json", {"status": status, "error": error})
@@ -211,28 +221,133 @@ def _unreadable(override: str) -> str | None:
     return None
 
 
-def command(main: Callable[[], Any], conf: Path, schema: Any, text: Iterable[str] = ()) -> None:
-    """Run a command's Hydra ``main`` from the command line.
+@dataclass
+class Usage:
+    """What ``python -m nsp.<command> --help`` shows, declared by each command: what it does (one
+    line), example command lines (a ``  # note`` may follow each), its main keys (``key=VALUE`` ->
+    one line) and the config groups a user picks from (group -> one line; the options are listed
+    from the command's config dir, the default marked)."""
 
-    First the command line: ``-m`` may stand anywhere in it; ``text`` keys' values are quoted where
-    Hydra needs it; an override Hydra cannot read, or one :func:`check_overrides` objects to (against
-    the config dir ``conf`` and the structured config ``schema``), ends with one line and
-    :data:`BAD_INPUT`. Then SIGTERM is treated as Ctrl-C, and an
-    interrupt the work has already handled (files kept, message printed) ends with
-    :data:`INTERRUPTED`, not a traceback.
+    summary: str
+    examples: tuple[str, ...]
+    keys: dict[str, str]
+    groups: dict[str, str] = field(default_factory=dict)
+
+
+def help_text(name: str, usage: Usage) -> str:
+    """The ``--help`` of ``python -m nsp.<name>``."""
+    lines = [f"python -m nsp.{name} {example}".strip().split("  # ") for example in usage.examples]
+    column = max((len(line[0]) for line in lines if len(line) > 1), default=0) + 3
+    examples = [f"  {line[0]:<{column}}# {line[1]}" if len(line) > 1 else f"  {line[0]}" for line in lines]
+    width = max(len(key) for key in [*usage.keys, *usage.groups]) + 4
+    keys = [f"  {key:<{width}}{text}" for key, text in usage.keys.items()]
+    groups, defaults = [], _defaults(name)
+    for group, text in usage.groups.items():
+        default, options = defaults.get(group), _options(name, group)
+        listed = ", ".join(f"{option}*" if option == default else option for option in options)
+        groups += [textwrap.fill(listed, 100, initial_indent=f"  {group:<{width}}", subsequent_indent=" " * (width + 2)),
+                   f"  {'':<{width}}{text}"]
+    return "\n".join([
+        f"usage: python -m nsp.{name} [key=value ...] [group=option ...] [-m, to sweep key=a,b]", "",
+        textwrap.fill(usage.summary, 100), "", "examples:", *examples, "", "main keys:", *keys,
+        *(["", "config groups (group=option; * the default):", *groups] if groups else []), "",
+        "Every key and its value: --cfg job. Hydra's own options: --hydra-help.",
+    ])
+
+
+def _options(name: str, group: str) -> list[str]:
+    """The options of one of the command's config groups: its YAML files; ``brush`` is generated."""
+    return list(BRUSH_NAMES) if group == "brush" else sorted(p.stem for p in (CONF / name / group).glob("*.yaml"))
+
+
+def _defaults(name: str) -> dict[str, str | None]:
+    """Group -> the option the command's YAML picks when the command line does not, following the
+    ``override /group: option`` lines of the picked options (a preset's)."""
+    picked = {key.removeprefix("optional ").removeprefix("override "): value
+              for key, value in _choices(CONF / name / f"{name}.yaml")}
+    for group, option in list(picked.items()):
+        for key, value in _choices(CONF / name / group / f"{option}.yaml"):
+            if key.startswith("override /"):
+                picked[key.removeprefix("override /")] = value
+    return picked
+
+
+def _choices(path: Path) -> Iterator[tuple[str, str | None]]:
+    """The ``group: option`` entries of a YAML file's defaults list (none if there is no such file)."""
+    entries = OmegaConf.load(path).get("defaults", []) if path.is_file() else []
+    for entry in entries:
+        if isinstance(entry, DictConfig):
+            yield from entry.items()
+
+
+def chosen(argv: list[str], name: str, key: str) -> str | None:
+    """What ``key`` (a plain key or a config group) of ``python -m nsp.<name>`` will be, from the
+    command line or else the command's YAML, told without composing (which imports torch): None
+    where composing could say otherwise (a sweep, an experiment) or neither names it."""
+    if any(arg in ("-m", "--multirun") for arg in argv):
+        return None
+    overrides = _overrides(argv)
+    if overrides is None or any(o.key_or_group == "experiment" for o in overrides):
+        return None
+    for override in overrides:
+        if override.key_or_group == key:
+            return None if override.is_sweep_override() else str(override.value())
+    value = _defaults(name).get(key, OmegaConf.load(CONF / name / f"{name}.yaml").get(key))
+    return None if value is None else str(value)
+
+
+_SHOWN: set[str] = set()  # lines printed before logging began, which the console does not repeat
+
+
+class Console(logging.StreamHandler):
+    """The on-screen half of a run's log (Hydra's ``job_logging``; ``<command>.log`` in the run dir
+    is the other): each message on ``sys.stdout`` as it is at that moment (a progress bar redirects
+    it to keep its place below), except a line :func:`command` printed before logging began."""
+
+    stream = property(lambda self: sys.stdout, lambda self, stream: None)
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        if message in _SHOWN:
+            _SHOWN.discard(message)
+            return False
+        return bool(super().filter(record))
+
+
+def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], Any], usage: Usage,
+            text: Iterable[str] = (), opening: Callable[[list[str]], str | None] = lambda argv: None) -> None:
+    """Run ``python -m nsp.<name>``: its Hydra task ``main`` on the config dir ``conf/<name>``.
+
+    ``--help`` prints :func:`help_text` and returns, before anything slow is imported. Then the
+    command line: ``-m`` may stand anywhere in it; ``text`` keys' values are quoted where Hydra
+    needs it; an override Hydra cannot read, or one :func:`check_overrides` objects to (against
+    the structured config ``schema()`` returns), ends with one line and :data:`BAD_INPUT`. The
+    ``opening(argv)`` line is printed once the options are known to exist, before ``schema()``
+    imports the work's modules (seconds). Then SIGTERM is treated as Ctrl-C, and an interrupt the
+    work has already handled (files kept, message printed) ends with :data:`INTERRUPTED`, not a
+    traceback.
     """
+    conf = CONF / name
     argv = sys.argv[1:]
+    if "-h" in argv or "--help" in argv:
+        print(help_text(name, usage))
+        return
     sweep = [arg for arg in argv if arg in ("-m", "--multirun")]  # anywhere in the line, as users type it
     sys.argv[1:] = argv = quote_text(sweep + [arg for arg in argv if arg not in sweep], text)
     for arg in argv:
         if "=" in arg and not arg.startswith("-") and (complaint := _unreadable(arg)):
             fail(f"cannot read {arg!r} ({complaint}); quote its value: key='...'")
-    if message := check_overrides(argv, conf, schema):
+    if message := _unknown_choice(_overrides(argv) or [], conf):
+        fail(message)
+    if all(arg in sweep or not arg.startswith("-") for arg in argv) and (line := opening(argv)):
+        print(line, flush=True)  # --cfg and the like print a config someone may pipe: nothing before it
+        _SHOWN.add(line)
+    if message := check_overrides(argv, conf, schema()):
         fail(message)
     signal.signal(signal.SIGTERM, _interrupt)
     os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises its errors here instead of printing them over several lines
     try:
-        main()
+        hydra.main(config_path=str(conf), config_name=name, version_base="1.3")(main)()
     except KeyboardInterrupt:
         sys.exit(INTERRUPTED)
     except (HydraException, OmegaConfBaseException) as error:  # composing: a value or key the config rejects
@@ -258,20 +373,25 @@ def check_overrides(argv: list[str], conf: Path, schema: Any) -> str | None:
     structured config; "Did you mean"); None if neither. Hydra's own messages for these span a
     dozen lines, or suggest nothing.
     """
-    try:
-        overrides = OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
-    except OverrideParseException:
+    overrides = _overrides(argv)
+    if overrides is None:
         return None
     return _unknown_choice(overrides, conf) or _misspelt_key(overrides, OmegaConf.to_container(OmegaConf.structured(schema)))
 
 
-def _unknown_choice(overrides: list, conf: Path) -> str | None:
-    from nsp.brushes import BRUSHES  # the brush group is generated from the brushes, not YAML
+def _overrides(argv: list[str]) -> list | None:
+    """The command line's overrides as Hydra parses them; None if it cannot."""
+    try:
+        return OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
+    except OverrideParseException:
+        return None
 
+
+def _unknown_choice(overrides: list, conf: Path) -> str | None:
     for override in overrides:
         group = override.key_or_group
         if group == "brush":
-            options = list(BRUSHES)
+            options = list(BRUSH_NAMES)
         elif (conf / group).is_dir() and not group.startswith("hydra"):
             options = sorted(p.stem for p in (conf / group).glob("*.yaml"))
         else:

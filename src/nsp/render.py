@@ -1,25 +1,38 @@
 """``python -m nsp.render strokes=PATH [brush=B] size=PX [background=COLOUR] out=PATH``: re-render a
-stroke file (nsp JSON, or a reference .npz with ``brush=``) as PNG, SVG or GIF."""
+stroke file (nsp JSON, or a reference .npz with ``brush=``) as PNG, SVG or GIF. The engine (torch)
+is imported only once the command line has been read."""
 from __future__ import annotations
 
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
-import hydra
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, OmegaConf
 
-from nsp.cli import command, fail
-from nsp.config import CONF, BrushConfig
-from nsp.engine.canvas import parse_color
-from nsp.engine.memory import check_canvas, stroke_cover
+from nsp.cli import Usage, chosen, command, fail
 from nsp.errors import BadInput
-from nsp.io.export import EXTENSIONS, GIF_FRAMES, write_painting
-from nsp.io.strokes import load_strokes
 
 TEXT = ("strokes", "out", "background")  # free text: paths, ``#rrggbb``
+
+USAGE = Usage(
+    summary="Draw a stroke file (nsp's strokes.json, or a reference .npz with brush=) as a PNG, an SVG "
+            "or an animated GIF of the strokes in order, by out='s extension.",
+    examples=(
+        "strokes=outputs/paint/<run>/strokes.json size=2048 out=big.png",
+        "strokes=outputs/paint/<run>/strokes.json out=painting.svg",
+        "strokes=outputs/paint/<run>/strokes.json size=512 out=animation.gif",
+        "strokes=reference.npz brush=oilpaint background=black out=ref.png",
+    ),
+    keys={
+        "strokes=PATH": "the stroke file (required)",
+        "out=PATH": "what to write: .png, .svg or .gif (required)",
+        "size=PX": "the long side (512)",
+        "background=COLOUR": "white, black or #rrggbb (the stroke file's own)",
+    },
+    groups={"brush": "the brush of a reference .npz file; nsp's JSON names its own"},
+)
 
 
 @dataclass
@@ -28,7 +41,7 @@ class RenderConfig:
     out: str = MISSING
     size: int = 512
     background: Optional[str] = None  # None: the stroke file's own background
-    brush: Optional[BrushConfig] = None  # needed for reference .npz files only
+    brush: Optional[Any] = None  # a ``brush`` group option (nsp.config.BrushConfig); for reference .npz files only
 
 
 ConfigStore.instance().store(name="render_schema", node=RenderConfig)
@@ -37,6 +50,11 @@ ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 def render(cfg: DictConfig) -> Path:
     """Render ``cfg.strokes`` to ``cfg.out``; returns the written path. The file appears whole or
     not at all: an error or an interrupt leaves no partial file."""
+    from nsp.engine.canvas import parse_color
+    from nsp.engine.memory import check_canvas, stroke_cover
+    from nsp.io.export import EXTENSIONS, frame_ends, write_painting
+    from nsp.io.strokes import load_strokes
+
     for key in ("strokes", "out"):
         if OmegaConf.is_missing(cfg, key):
             raise BadInput(f"{key}= is required (strokes=PATH out=PATH.png|.svg|.gif)")
@@ -56,7 +74,7 @@ def render(cfg: DictConfig) -> Path:
     brush = painting.brush
     if suffix != ".svg":  # an SVG holds no pixels
         cover = stroke_cover(brush, painting.strokes, height, width)
-        check_canvas(height, width, "size", cover, frames=GIF_FRAMES + 1 if suffix == ".gif" else 0)
+        check_canvas(height, width, "size", cover, frames=len(frame_ends(len(painting.strokes))) if suffix == ".gif" else 0)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -68,7 +86,6 @@ def render(cfg: DictConfig) -> Path:
     return out
 
 
-@hydra.main(config_path=str(CONF / "render"), config_name="render", version_base="1.3")
 def main(cfg: DictConfig) -> None:
     try:
         print(f"wrote {render(cfg)}")
@@ -79,9 +96,22 @@ def main(cfg: DictConfig) -> None:
         raise
 
 
+def opening(argv: list[str]) -> str | None:
+    """The first line, shown before the engine loads."""
+    strokes, out = chosen(argv, "render", "strokes"), chosen(argv, "render", "out")
+    return None if None in (strokes, out) else f"rendering {strokes} as {out}…"
+
+
+def schema() -> RenderConfig:
+    """Every key a render config can have (registers the ``brush`` group)."""
+    from nsp.config import BrushConfig
+
+    return RenderConfig(brush=BrushConfig(MISSING))
+
+
 def cli() -> None:
     """The command line: ``python -m nsp.render``."""
-    command(main, CONF / "render", RenderConfig(brush=BrushConfig(MISSING)), text=TEXT)
+    command("render", main, schema, USAGE, text=TEXT, opening=opening)
 
 
 if __name__ == "__main__":

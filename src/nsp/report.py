@@ -4,7 +4,8 @@ DIR is a multirun's sweep dir, a folder of run dirs, or one run's dir; without i
 under ``multirun/``. Writes ``report.md`` (what every job shares, a row per job with the columns that
 tell jobs apart; renderer studies also get the renderer × brush table, mean ± std over seeds, beside
 the paper's), ``report.csv`` (a row per job, every column), one ``<tag>.png`` per TensorBoard curve
-and a bar chart of the final score.
+and a bar chart of the final score. The reporting modules (TensorBoard's reader, matplotlib) are
+imported only once the command line has been read.
 """
 from __future__ import annotations
 
@@ -13,7 +14,6 @@ from pathlib import Path
 
 from nsp.cli import fail
 from nsp.errors import BadInput
-from nsp.reporting import latest_sweep, write_report
 
 SUMMARY = "Tables and plots of training or painting runs, written into DIR."
 EXAMPLES = """examples:
@@ -31,6 +31,8 @@ def cli(argv: list[str] | None = None) -> None:
                         help="a multirun's sweep dir, a folder of run dirs or one run's dir "
                              "(default: the newest sweep under multirun/)")
     args = parser.parse_args(argv)
+    from nsp.reporting import latest_sweep, write_report
+
     try:
         written = write_report(args.dir or latest_sweep(Path("multirun")))
     except BadInput as error:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import secrets
 from collections.abc import Iterator
@@ -19,7 +20,7 @@ from nsp.engine.canvas import paint_canvas, parse_color
 from nsp.errors import BadInput
 
 EXTENSIONS = (".png", ".svg", ".gif")
-GIF_FRAMES = 50  # frames of an animation after its empty canvas
+GIF_FRAMES = 100  # the most frames of an animation after its empty canvas (nsp.io.export.frame_ends)
 
 
 def to_uint8(image: Tensor) -> np.ndarray:
@@ -54,23 +55,67 @@ def write_png(path: str | Path, image: Tensor) -> None:
 
 def write_gif(
     path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
-    frames: int = GIF_FRAMES, seconds: float = 4.0,
+    frames: int | None = GIF_FRAMES, seconds: float = 4.0,
 ) -> None:
-    """An animation of the strokes appearing in order, ``frames`` frames, the last held a second;
-    no strokes give one frame of the plain canvas."""
+    """An animation of the strokes (N, d) appearing in order: the empty canvas, then a frame at
+    each of :func:`frame_ends` (at most ``frames`` after the first, the same strokes each; None:
+    one a stroke), over about ``seconds``, the last held a second. Every frame maps to one shared
+    palette, without dithering: nothing flickers, and pixels no stroke touched stay the same bytes,
+    which keeps the file small."""
+    palette = gif_palette(brush, strokes, height, width, background)
     color = torch.tensor(parse_color(background), dtype=strokes.dtype)[:, None, None]
     canvas = color.expand(3, height, width)
-    ends = np.unique(np.linspace(0, len(strokes), min(frames, len(strokes)) + 1).round().astype(int))
-    # Each frame kept as its palette image (1 byte a pixel) only. Fast octree palettes: Pillow's
-    # default quantizer takes seconds per frame.
-    palettes = [Image.fromarray(to_uint8(canvas)).quantize(256, Image.Quantize.FASTOCTREE)]
+    ends = frame_ends(len(strokes), frames)
+    images = [_indexed(canvas, palette)]  # each frame kept as a palette image only (1 byte a pixel)
     with torch.no_grad():
         for start, end in zip(ends[:-1], ends[1:]):
             canvas = paint_canvas(brush, strokes[start:end], height, width, canvas=canvas)
-            palettes.append(Image.fromarray(to_uint8(canvas)).quantize(256, Image.Quantize.FASTOCTREE))
-    durations = [round(1000 * seconds / len(palettes))] * (len(palettes) - 1) + [1000]
+            images.append(images[-1].copy())
+            left, top, right, bottom = _touched(brush, strokes[start:end], height, width)
+            if right > left and bottom > top:  # only the pixels the frame's strokes touched are mapped again
+                images[-1].paste(_indexed(canvas[:, top:bottom, left:right], palette), (left, top))
+    step = max(2, round(100 * seconds / max(len(images) - 1, 1))) * 10  # ms: GIF counts in tens; players slow faster frames
     with atomic_path(path) as temporary:
-        palettes[0].save(temporary, format="GIF", save_all=True, append_images=palettes[1:], duration=durations, loop=0)
+        images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
+                       duration=[step] * (len(images) - 1) + [1000], loop=0)
+
+
+def frame_ends(strokes: int, frames: int | None = GIF_FRAMES) -> list[int]:
+    """The strokes shown by each frame of an animation of ``strokes``: 0 (the empty canvas), then
+    k more a frame, k = ⌈strokes / frames⌉ (None: 1), the last frame maybe fewer."""
+    step = 1 if frames is None else max(1, math.ceil(strokes / frames))
+    return [*range(0, strokes, step), strokes] if strokes else [0]
+
+
+def gif_palette(brush: Brush, strokes: Tensor, height: int, width: int, background: str, side: int = 128) -> Image.Image:
+    """256 colours for every frame of an animation: Pillow's octree of the painting drawn small
+    (long side ``side``) a quarter, half, three quarters of the way and done, so the colours of
+    strokes later covered count too."""
+    scale = min(1.0, side / max(height, width))
+    small = (max(1, round(height * scale)), max(1, round(width * scale)))
+    canvas = torch.tensor(parse_color(background), dtype=strokes.dtype)[:, None, None].expand(3, *small)
+    cuts = np.linspace(0, len(strokes), 5).round().astype(int)
+    views = []
+    with torch.no_grad():
+        for start, end in zip(cuts[:-1], cuts[1:]):
+            canvas = paint_canvas(brush, strokes[start:end], *small, canvas=canvas)
+            views.append(to_uint8(canvas))
+    return Image.fromarray(np.concatenate(views)).quantize(256, Image.Quantize.FASTOCTREE)
+
+
+def _touched(brush: Brush, strokes: Tensor, height: int, width: int, margin: int = 2) -> tuple[int, int, int, int]:
+    """The pixels strokes (N, d) can change on a ``height``×``width`` canvas: left, top, right,
+    bottom (exclusive) of their bounding boxes, widened by ``margin`` for the antialiased edge (the
+    engine's own culling leaves pixels farther out untouched)."""
+    box = brush.extent(strokes.detach(), height, width)  # (N, 4) px: x_min, y_min, x_max, y_max
+    left, top = (max(0, math.floor(float(box[:, i].min())) - margin) for i in (0, 1))
+    right, bottom = (min(side, math.ceil(float(box[:, i].max())) + margin + 1) for i, side in ((2, width), (3, height)))
+    return left, top, right, bottom
+
+
+def _indexed(image: Tensor, palette: Image.Image) -> Image.Image:
+    """(3, H, W) in [0, 1] as a palette image of ``palette``'s colours, each pixel its nearest."""
+    return Image.fromarray(to_uint8(image)).quantize(palette=palette, dither=Image.Dither.NONE)
 
 
 def write_svg(

@@ -23,11 +23,12 @@ def grid_shape(m: int, height: int, width: int) -> tuple[int, int]:
     return m, max(1, round(m * width / height))
 
 
-def progressive_grids(strokes: int, height: int, width: int, max_per_block: int) -> list[int]:
-    """Levels m = 1…M, M the fewest for which no block gets more than ``max_per_block`` strokes."""
+def progressive_grids(strokes: int, height: int, width: int, max_per_block: int, growth: float = 1.0) -> list[int]:
+    """Levels m = 1, …, each the last's m·``growth`` rounded up (at least m + 1; growth 1 gives the
+    paper's 1, 2, 3, …), as few as leave no block more than ``max_per_block`` strokes."""
     grids, blocks = [1], 1
     while math.ceil(strokes / blocks) > max_per_block:
-        grids.append(len(grids) + 1)
+        grids.append(max(grids[-1] + 1, math.ceil(grids[-1] * growth - 1e-9)))
         rows, cols = grid_shape(grids[-1], height, width)
         blocks += rows * cols
     return grids
@@ -48,6 +49,19 @@ def distribute(strokes: int, blocks: list[int]) -> list[Tensor]:
             counts[level][torch.arange(take) * n // take] += 1
         extra -= take
     return counts
+
+
+def share(strokes: int, scores: Tensor, cap: int) -> Tensor:
+    """Split ``strokes`` over blocks in proportion to their ``scores`` (B,) ≥ 0, none above ``cap``:
+    (B,) long counts summing to exactly min(strokes, B·cap).
+
+    Highest averages (D'Hondt): each stroke in turn goes to the block of the largest
+    score / (strokes it has + 1) among those below the cap; ties go to the earlier block.
+    """
+    scores = scores.double().clamp_min(0) + 1e-12  # blocks with nothing to fix still take what is left
+    prices = scores[:, None] / torch.arange(1, cap + 1, dtype=torch.float64)  # (B, cap), falling along a row
+    order = torch.argsort(prices.flatten(), descending=True, stable=True)[:strokes]
+    return torch.bincount(order // cap, minlength=len(scores))
 
 
 @dataclass(frozen=True)

@@ -1,30 +1,58 @@
 """What the painter reports while it works: TensorBoard curves and canvases, a progress bar."""
 from __future__ import annotations
 
+from typing import Mapping
+
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
+from torch.utils.tensorboard.summary import hparams
 
+from nsp.painter.images import psnr
 from nsp.painter.painter import Callback, Painter
 
 
 class TensorBoard(Callback):
-    """``loss/l1``, ``loss/ot``, ``loss/total`` per step (the paper's Fig. 7 curves), the canvas per level."""
+    """A painting's TensorBoard, on one step axis, the optimizer's steps (counted over all levels):
 
-    def __init__(self, writer: SummaryWriter):
-        self.writer = writer
+    - ``loss/<term>`` per step (the paper's Fig. 7 curves); ``loss/total`` only beside two terms
+      or more (alone, it would repeat its one term);
+    - per level, ``level/psnr`` of everything painted so far against the target, and that canvas;
+    - ``target`` once, and the run's settings beside its final scores in HPARAMS (:meth:`log_run`).
+
+    Args:
+        writer: the run's writer.
+        target: (3, H, W) in [0, 1], the image the strokes are fitted to.
+    """
+
+    def __init__(self, writer: SummaryWriter, target: Tensor):
+        self.writer, self.target, self.step = writer, target, 0
+        writer.add_image("target", target.clamp(0, 1), 0)
 
     def on_step(self, painter: Painter, step: int, losses: dict[str, float]) -> None:
         for name, value in losses.items():
-            self.writer.add_scalar(f"loss/{name}", value, step)
+            if name != "total" or len(losses) > 2:
+                self.writer.add_scalar(f"loss/{name}", value, step)
 
     def on_level(self, painter: Painter, level: int, canvas: Tensor) -> None:
-        self.writer.add_image("canvas", canvas.clamp(0, 1), level + 1)
+        self.step = painter.step
+        self.writer.add_scalar("level/psnr", psnr(canvas, self.target).item(), self.step)
+        self.writer.add_image("canvas", canvas.clamp(0, 1), self.step)
+        self.writer.flush()
+
+    def log_run(self, settings: Mapping[str, str | int | float], scores: Mapping[str, float]) -> None:
+        """``final/<score>`` at the last step and the HPARAMS entry: ``settings`` beside those scores."""
+        for name, value in scores.items():
+            self.writer.add_scalar(f"final/{name}", value, self.step)
+        # SummaryWriter.add_hparams would write them into a run dir of their own, and log each score again
+        for summary in hparams(dict(settings), {f"final/{name}": 0.0 for name in scores}):
+            self.writer._get_file_writer().add_summary(summary)
         self.writer.flush()
 
 
 class ProgressBar(Callback):
-    """A rich progress bar over the strokes (or other ``unit``), with the level and the latest L1."""
+    """A rich progress bar over the strokes (or other ``unit``), with the level and the latest L1;
+    :attr:`seconds` is the time it shows once done."""
 
     def __init__(self, total: int, enabled: bool = True, unit: str = "strokes"):
         self.progress = Progress(
@@ -45,6 +73,11 @@ class ProgressBar(Callback):
 
     def __exit__(self, *exc) -> None:
         self.progress.stop()
+
+    @property
+    def seconds(self) -> float:
+        task = self.progress.tasks[self.task]
+        return (task.finished_time if task.finished else task.elapsed) or 0.0
 
     def advance(self, count: int, description: str) -> None:
         self.progress.update(self.task, advance=count, description=description)

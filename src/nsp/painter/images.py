@@ -53,8 +53,9 @@ WHITE = {"I": 65535, "F": 1.0}  # PIL keeps 16-bit samples in I modes; F is take
 TURNED = (5, 6, 7, 8)  # EXIF orientations that swap width and height
 
 
-def load_image(spec: str, max_side: int | None = None) -> Tensor:
-    """A built-in photo's name or an image file's path -> (3, H, W) float in [0, 1].
+def load_image(spec: str, max_side: int | None = None, key: str = "image") -> Tensor:
+    """A built-in photo's name or an image file's path -> (3, H, W) float in [0, 1]; errors name
+    it as ``key=spec``.
 
     Upright as the EXIF orientation says and transparent pixels over white, as an image viewer
     shows it. With ``max_side``, a photo whose long side is longer comes back with long side
@@ -65,20 +66,20 @@ def load_image(spec: str, max_side: int | None = None) -> Tensor:
         return _decode(Image.fromarray(BUILTIN[spec]()), max_side)
     path = Path(spec).expanduser()
     if not path.is_file():
-        raise ImageError(f"image={spec}: no such file; {VALID}")
-    with _readable(spec):
+        raise ImageError(f"{key}={spec}: no such file; {VALID}")
+    with _readable(f"{key}={spec}"):
         image = Image.open(path)
     with image:
         if image.width * image.height > MAX_PIXELS:
-            raise ImageError(f"image={spec} is {image.width}×{image.height} pixels, over the limit of "
+            raise ImageError(f"{key}={spec} is {image.width}×{image.height} pixels, over the limit of "
                              f"{MAX_PIXELS // 10**6} megapixels; give a smaller image")
-        with _readable(spec):
+        with _readable(f"{key}={spec}"):
             return _decode(image, max_side)
 
 
 @contextmanager
-def _readable(spec: str) -> Iterator[None]:
-    """PIL's errors while reading ``spec`` -> one-line ImageErrors.
+def _readable(given: str) -> Iterator[None]:
+    """PIL's errors while reading the image ``given`` (``key=spec``) -> one-line ImageErrors.
 
     PIL's size guard, a module global, is lifted meanwhile: load_image checks the size itself.
     """
@@ -86,7 +87,7 @@ def _readable(spec: str) -> Iterator[None]:
     try:
         yield
     except (OSError, ValueError, SyntaxError) as error:
-        raise ImageError(f"image={spec} is not an image this can read ({error}); {VALID}") from None
+        raise ImageError(f"{given} is not an image this can read ({error}); {VALID}") from None
     finally:
         Image.MAX_IMAGE_PIXELS = guard
 

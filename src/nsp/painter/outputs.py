@@ -28,8 +28,9 @@ def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tupl
 
 
 def write_vector_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str,
-                       render_size: int, animation_size: int, frames: int) -> None:
-    """Write ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order)."""
+                       render_size: int, animation_size: int, frames: int | None) -> None:
+    """Write ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order,
+    long side ``animation_size``, at most ``frames`` frames after the empty canvas; None: one a stroke)."""
     write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background)
     height, width = long_side(*aspect, animation_size)
     write_gif(out / "animation.gif", brush, strokes, height, width, background, frames=frames)

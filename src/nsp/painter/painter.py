@@ -1,13 +1,18 @@
 """Stroke search (paper §3): strokes are optimized by gradient descent so that, composited in order,
 they reproduce the target; progressively, from one block to finer grids of overlapping blocks.
 
-Each level paints all its blocks as one batch (blocks × active strokes × pixels). Strokes join a
-block's active set one at a time, at its largest error; after each addition the whole active set
-takes ``steps_per_stroke`` optimizer steps. A finished level is rendered by the vector engine at
-the working resolution and is the background of the next.
+Each level paints all its blocks as one batch (blocks × active strokes × pixels). A level's strokes
+are shared among its blocks by the error left when it starts (or equally, as in the paper). Strokes
+join a block's active set one at a time, at its largest error; after each addition the whole active
+set takes ``steps_per_stroke`` optimizer steps (a block whose strokes are all placed is done: it
+took its 20 × N steps, paper §3.6), and each stroke's colours stay within those of the target
+around it. A finished level is rendered by the vector engine at the working resolution and is the
+background of the next.
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 from typing import Callable, Sequence
 
 import torch
@@ -16,9 +21,12 @@ from torch.optim import Optimizer
 
 from nsp.brushes import Brush
 from nsp.engine import composite, paint_canvas, parse_color
-from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids
+from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
 from nsp.painter.optimize import optimize_strokes
+from nsp.painter.palette import Palette
 from nsp.painter.placement import place_strokes
+
+SPLITS = ("uniform", "error")
 
 
 class Callback:
@@ -43,11 +51,17 @@ class Painter:
             with ``renderer.resolution(side) -> size`` (see :mod:`nsp.painter.renderer`).
         loss: ``loss(canvas, target) -> {"total": scalar, ...}`` on (B, 3, h, w) blocks.
         optimizer: builds the optimizer of a list of parameters (e.g. a ``_partial_`` RMSprop).
-        grids: m of each level, in order; ``None``: 1…M, M from ``max_per_block``.
+        grids: m of each level, in order; ``None``: chosen from ``max_per_block`` and ``growth``.
         max_per_block: the most strokes a block gets when the levels are chosen here.
+        growth: how much finer each chosen level's grid is than the last (1: m = 1, 2, 3, …, the
+            paper's; 1.4: 1, 2, 3, 5, 7, 10, …, fewer coarse levels that later ones repaint).
         overlap: how much larger than its grid cell a block is (fraction).
         steps_per_stroke: optimizer steps after each stroke joins the active set (paper: 20).
-        init_size: range of new strokes' sizes, as fractions of the block width.
+        split: how a level's strokes are shared among its blocks: ``"error"``, in proportion to
+            the error left in each (at most ``crowd`` times the mean); ``"uniform"``, equally (paper).
+        crowd: the most strokes a block takes under ``split="error"``, as a multiple of the mean.
+        init_size: range of new strokes' lengths, as fractions of the block width.
+        palette: keep each stroke's colours within the target's around it (see :class:`Palette`).
         background: canvas colour.
         generator: the only source of randomness (new strokes' sizes, angles, directions).
         callbacks: see :class:`Callback`.
@@ -64,16 +78,25 @@ class Painter:
         *,
         grids: Sequence[int] | None = None,
         max_per_block: int = 6,
-        overlap: float = 0.25,
+        growth: float = 1.4,
+        overlap: float = 0.0,
         steps_per_stroke: int = 8,
+        split: str = "error",
+        crowd: float = 2.0,
         init_size: tuple[float, float] = (0.1, 0.3),
+        palette: bool = True,
         background: str = "white",
         generator: torch.Generator | None = None,
         callbacks: Sequence[Callback] = (),
         trainable: Sequence[int] | None = None,
     ):
         self.brush, self.renderer, self.loss, self.optimizer = brush, renderer, loss, optimizer
-        self.grids, self.max_per_block, self.overlap = grids, max_per_block, overlap
+        self.grids, self.max_per_block, self.growth, self.overlap = grids, max_per_block, growth, overlap
+        if split not in SPLITS:
+            raise ValueError(f"split={split!r}: expected one of {', '.join(SPLITS)}")
+        if growth < 1 or crowd < 1:
+            raise ValueError(f"growth={growth}, crowd={crowd}: expected at least 1")
+        self.split, self.crowd, self.palette = split, crowd, palette
         self.steps_per_stroke, self.init_size, self.background = steps_per_stroke, tuple(init_size), background
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         self.callbacks = list(callbacks)
@@ -84,7 +107,7 @@ class Painter:
 
     def levels(self, strokes: int, height: int, width: int) -> list[Level]:
         """The schedule for ``strokes`` strokes on a height×width canvas; counts sum to ``strokes``."""
-        grids = list(self.grids) if self.grids else progressive_grids(strokes, height, width, self.max_per_block)
+        grids = list(self.grids) if self.grids else progressive_grids(strokes, height, width, self.max_per_block, self.growth)
         blocks = [rows * cols for rows, cols in (grid_shape(m, height, width) for m in grids)]
         counts = distribute(strokes, blocks)
         return [Level.grid(m, height, width, self.overlap, n) for m, n in zip(grids, counts)]
@@ -123,42 +146,58 @@ class Painter:
         goal = level.crop(target, size)  # (B, 3, s, s)
         under = level.crop(canvas, size)
         weights = level.weights(size, target)  # padding is scored as if painted right
+        if self.split == "error":
+            level = self._by_error(level, under, goal, weights)
         depth = int(level.counts.max())
-        exists = torch.arange(depth)[None] < level.counts[:, None]  # (B, K): blocks get K or K−1
+        exists = torch.arange(depth)[None] < level.counts[:, None]  # (B, K)
         x = torch.zeros(level.blocks, depth, self.brush.d, requires_grad=True)
         optimizer = self.optimizer([x])
+        palette = Palette(goal, max(5, round(self.init_size[1] * size))) if self.palette else None  # a long stroke wide
         painted = torch.zeros_like(exists)
         self._active = (level, x, painted, size)
-        current = under
+        current = under.clone()
         for k in range(depth):
+            live = exists[:, k].nonzero()[:, 0]  # (b,) the blocks that still take strokes
             with torch.no_grad():
-                x[:, k] = place_strokes(self.brush, current, goal, weights, self.init_size, self.generator)
+                x[live, k] = place_strokes(self.brush, current[live], goal[live], weights[live], self.init_size,
+                                           self.generator)
             painted[:, k] = exists[:, k]
             for callback in self.callbacks:
-                callback.on_strokes(self, int(exists[:, k].sum()))
+                callback.on_strokes(self, len(live))
             if not self.steps_per_stroke:
                 with torch.no_grad():
-                    current = self._blend(x[:, : k + 1], painted[:, : k + 1], under, goal, weights, size)
+                    current[live] = self._blend(x[live, : k + 1], under[live], goal[live], weights[live], size)
 
-            def objective(k: int = k) -> tuple[Tensor, dict[str, Tensor]]:
-                out = self._blend(x[:, : k + 1], painted[:, : k + 1], under, goal, weights, size)
-                return out, self.loss(out, goal)
+            def objective(k: int = k, live: Tensor = live) -> tuple[Tensor, dict[str, Tensor]]:
+                out = self._blend(x[live, : k + 1], under[live], goal[live], weights[live], size)
+                return out, self.loss(out, goal[live])
 
-            for current, scalars in optimize_strokes(x, optimizer, self.steps_per_stroke, objective, self.frozen):
+            for out, scalars in optimize_strokes(x, optimizer, self.steps_per_stroke, objective, self.frozen):
+                current[live] = out
+                if palette is not None:
+                    with torch.no_grad():
+                        strokes = x[live, : k + 1]
+                        palette.clamp_(self.brush, strokes, live)
+                        x[live, : k + 1] = strokes
                 self.step += 1
                 for callback in self.callbacks:
                     callback.on_step(self, self.step, scalars)
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
 
-    def _blend(self, x: Tensor, painted: Tensor, under: Tensor, goal: Tensor, weights: Tensor, size: int) -> Tensor:
-        """Composite the active strokes x (B, k, d) of each block on its background: (B, 3, s, s).
+    def _by_error(self, level: Level, under: Tensor, goal: Tensor, weights: Tensor) -> Level:
+        """The level with its strokes shared by the mean |canvas − target| left in each block
+        (B, 3, s, s each; weights (B, 1, s, s)), at most ``crowd`` times the mean per block."""
+        error = ((under - goal).abs().sum(1, keepdim=True) * weights).sum((1, 2, 3)) / weights.sum((1, 2, 3))
+        strokes = int(level.counts.sum())
+        cap = max(1, math.ceil(self.crowd * strokes / level.blocks))
+        return dataclasses.replace(level, counts=share(strokes, error, cap))
 
-        Strokes not painted (blocks with fewer strokes) get alpha 0; padding shows the target.
-        """
+    def _blend(self, x: Tensor, under: Tensor, goal: Tensor, weights: Tensor, size: int) -> Tensor:
+        """Composite the strokes x (B, k, d) of each block on its background: (B, 3, s, s); padding
+        shows the target."""
         blocks, k, d = x.shape
         fg, alpha = self.renderer(x.reshape(-1, d), size)
-        alpha = alpha.view(blocks, k, 1, size, size) * painted[:, :, None, None, None]
-        out = composite(fg.view(blocks, k, 3, size, size), alpha, under)
+        out = composite(fg.view(blocks, k, 3, size, size), alpha.view(blocks, k, 1, size, size), under)
         return weights * out + (1 - weights) * goal
 
 

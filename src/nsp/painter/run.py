@@ -1,10 +1,12 @@
 """A painting run: check the inputs, paint (paper §3), style (§3.5), write the painting's files.
 
 ``paint(cfg)`` is what ``python -m nsp.paint`` runs; it needs a composed ``nsp.paint`` config
-(``output_dir`` set), not Hydra.
+(``output_dir`` set), not Hydra. What it tells (the phases, the closing summary) goes through
+:mod:`logging`: under Hydra, to the console and the run dir's ``paint.log``.
 """
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
@@ -18,7 +20,7 @@ from nsp.cli import shielded
 from nsp.engine import parse_color
 from nsp.engine.memory import check_canvas
 from nsp.errors import BadInput
-from nsp.io.export import write_json, write_png
+from nsp.io.export import frame_ends, write_json, write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
 from nsp.painter.images import load_image, long_side, resize
 from nsp.painter.losses import PaintLoss
@@ -26,12 +28,14 @@ from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, w
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer, load_neural
 from nsp.painter.stylize import stylize
-from nsp.style import StyleLoss, WeightsNotFound, load_style_image
+from nsp.style import StyleLoss, WeightsNotFound
 
 POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_frames", "renderer.softness",
             "renderer.block_size", "schedule.max_per_block")
 
 MIN_WORK_SIZE = 16  # the coarsest canvas strokes are optimized on, in pixels
+
+log = logging.getLogger(__name__)
 
 
 def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
@@ -41,8 +45,9 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     Raises :class:`BadInput` naming the value and what is valid.
     """
     for key in POSITIVE:
-        if OmegaConf.select(cfg, key) <= 0:
-            raise BadInput(f"{key}={OmegaConf.select(cfg, key)}: expected a positive number")
+        value = OmegaConf.select(cfg, key)
+        if value is not None and value <= 0:  # None: animation_frames' frame per stroke
+            raise BadInput(f"{key}={value}: expected a positive number")
     if cfg.work_size < MIN_WORK_SIZE:
         raise BadInput(f"work_size={cfg.work_size}: expected at least {MIN_WORK_SIZE} pixels")
     if cfg.threads is not None and cfg.threads < 1:
@@ -56,6 +61,9 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     s = cfg.schedule
     if s.steps_per_stroke < 0 or s.overlap < 0:
         raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.overlap={s.overlap}: expected ≥ 0")
+    if s.growth < 1 or s.crowd < 1:
+        raise BadInput(f"schedule.growth={s.growth}, schedule.crowd={s.crowd}: expected ≥ 1 (1: the paper's 1, 2, 3 … "
+                       "levels; a block's share at most crowd × the level's mean)")
     if len(s.init_size) != 2 or not 0 < s.init_size[0] <= s.init_size[1] <= 1:
         raise BadInput(f"schedule.init_size={list(s.init_size)}: expected [low, high] with 0 < low ≤ high ≤ 1")
     if s.grids is not None and (not s.grids or min(s.grids) < 1):
@@ -65,7 +73,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
         photo = load_image(cfg.image, max_side=max(cfg.work_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0))
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
-        check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size", frames=cfg.animation_frames + 1)
+        check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size",
+                     frames=len(frame_ends(cfg.strokes, cfg.animation_frames)))
         if cfg.renderer.name == "analytic":
             renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
         elif cfg.renderer.checkpoint is None:
@@ -76,33 +85,47 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
             raise BadInput(f"style.steps={cfg.style.steps}, style.size={cfg.style.size}: expected steps ≥ 0, size > 0")
         style = None
         if cfg.style.image is not None:
-            style = StyleLoss(load_style_image(cfg.style.image, cfg.style.size), cfg.style.backbone, cfg.style.weights,
-                              cfg.seed, cfg.style.color_weight if cfg.style.mode == "color" else 0.0)
+            image = resize(load_image(cfg.style.image, max_side=cfg.style.size, key="style.image"), cfg.style.size)
+            style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
     except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None
     loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.background))
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
-                      overlap=s.overlap, steps_per_stroke=s.steps_per_stroke, init_size=s.init_size,
+                      growth=s.growth, overlap=s.overlap, split=str(s.split), crowd=s.crowd,
+                      steps_per_stroke=s.steps_per_stroke, init_size=s.init_size, palette=s.palette,
                       background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
     return painter, photo, style
 
 
+def settings(cfg: DictConfig) -> dict[str, str | int | float]:
+    """The run's key settings, as its TensorBoard HPARAMS entry shows them."""
+    return {"image": str(cfg.image), "brush": cfg.brush.name, "strokes": cfg.strokes, "renderer": str(cfg.renderer.name),
+            "loss.l1": cfg.loss.l1, "loss.ot": cfg.loss.ot, "schedule.steps_per_stroke": cfg.schedule.steps_per_stroke,
+            "work_size": cfg.work_size, "optimizer.lr": cfg.optimizer.get("lr", 0.0), "seed": cfg.seed,
+            "style.image": str(cfg.style.image)}
+
+
 def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo: torch.Tensor, style: StyleLoss,
-                writer: SummaryWriter) -> torch.Tensor:
-    """The style steps on the painted ``strokes`` (N, d); logs ``style/*`` curves; returns new strokes."""
-    with ProgressBar(cfg.style.steps, cfg.progress, "style steps") as bar:
-        def log(step: int, losses: dict[str, float]) -> None:
+                writer: SummaryWriter) -> tuple[torch.Tensor, float]:
+    """The style steps on the painted ``strokes`` (N, d); logs ``style/*`` curves; returns new
+    strokes and the seconds they took."""
+    steps = cfg.style.steps if cfg.style.mode == "full" else 0  # colour mode is one recolouring, no steps
+    with ProgressBar(steps, cfg.progress, "style steps") as bar:
+        def log_step(step: int, losses: dict[str, float]) -> None:
             for name, value in losses.items():
                 writer.add_scalar(f"style/{name}", value, step)
             bar.advance(1, f"style {losses['style']:.3f}")
 
-        return stylize(painter.brush, strokes, resize(photo, cfg.style.size), painter.loss, style,
-                       instantiate(cfg.optimizer), weight=cfg.style.weight, steps=cfg.style.steps,
-                       mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness, callbacks=[log])
+        strokes = stylize(painter.brush, strokes, resize(photo, cfg.style.size), painter.loss, style,
+                          instantiate(cfg.optimizer), weight=cfg.style.weight, steps=cfg.style.steps,
+                          mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness,
+                          callbacks=[log_step])
+    return strokes, bar.seconds
 
 
 def paint(cfg: DictConfig) -> dict:
-    """Paint ``cfg.image``; write the painting's files into ``cfg.output_dir``; return the metrics.
+    """Paint ``cfg.image``; write the painting's files into ``cfg.output_dir``; return the metrics
+    (``seconds``: the whole run, the checks and files included).
 
     Interrupted (Ctrl-C, SIGTERM) or failing part-way, it still writes ``strokes.json`` and
     ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises.
@@ -115,24 +138,37 @@ def paint(cfg: DictConfig) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
     shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
-    with SummaryWriter(out / "tensorboard") as writer, ProgressBar(cfg.strokes, cfg.progress) as bar:
-        painter.callbacks += [TensorBoard(writer), bar]
-        try:
-            strokes = painter.paint(target, cfg.strokes)
-        except BaseException:
-            with shielded():
-                write_strokes_and_png(out, painter.strokes(), *shared)
-            raise
+    log.info(f"painting {cfg.image} with {cfg.strokes} {painter.brush.name} strokes…")
+    phases = []  # what took how long, as the bars showed it
+    with SummaryWriter(out / "tensorboard") as writer:
+        board = TensorBoard(writer, target)
+        with ProgressBar(cfg.strokes, cfg.progress) as bar:
+            painter.callbacks += [board, bar]
+            try:
+                strokes = painter.paint(target, cfg.strokes)
+            except BaseException:
+                with shielded():
+                    write_strokes_and_png(out, painter.strokes(), *shared)
+                raise
+        phases.append(f"painted {len(strokes)} {painter.brush.name} strokes in {bar.seconds:.1f} s")
         if style is not None:
             write_png(out / "style.png", style.image[0])
             try:
-                strokes = paint_style(cfg, painter, strokes, photo, style, writer)
+                strokes, seconds = paint_style(cfg, painter, strokes, photo, style, writer)
             except BaseException:
                 with shielded():
                     write_strokes_and_png(out, strokes, *shared)  # the unstyled painting
                 raise
-    final = write_strokes_and_png(out, strokes, *shared)
-    write_vector_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames)
-    metrics = similarity(final, photo) | {"seconds": round(time.perf_counter() - start, 2), "strokes": len(strokes)}
+            phases.append(f"styled in {seconds:.1f} s")
+        frames = len(frame_ends(len(strokes), cfg.animation_frames))
+        log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
+        files = time.perf_counter()
+        final = write_strokes_and_png(out, strokes, *shared)
+        write_vector_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames)
+        scores = similarity(final, photo)
+        phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
+        board.log_run(settings(cfg), scores)
+    metrics = scores | {"seconds": round(time.perf_counter() - start, 2), "strokes": len(strokes)}
     write_json(out / "metrics.json", metrics)
+    log.info(f"{', '.join(phases)}: PSNR {scores['psnr']:.2f} dB, SSIM {scores['ssim']:.3f}; {out}")
     return metrics

@@ -10,12 +10,14 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
 from nsp.config import BrushConfig  # also registers the ``brush`` group
+from nsp.painter.painter import SPLITS
 from nsp.painter.stylize import MODES
 from nsp.style import BACKBONES
 
 # Typed choices: Hydra rejects any other value when it composes, listing these.
 StyleMode = StrEnum("StyleMode", {mode: mode for mode in MODES})
 Backbone = StrEnum("Backbone", {name: name for name in BACKBONES})
+Split = StrEnum("Split", {split: split for split in SPLITS})
 RendererName = StrEnum("RendererName", {name: name for name in ("analytic", "neural")})
 
 
@@ -43,28 +45,38 @@ class LossConfig:
 
 @dataclass
 class ScheduleConfig:
-    """Levels of blocks (``grids``: m per level; None: 1…M, M the fewest with ≤ max_per_block
-    strokes per block), and how each stroke is added and optimized."""
+    """Levels of blocks (``grids``: m per level; None: m = 1, then each ×growth rounded up, the fewest
+    levels with ≤ max_per_block strokes per block), how a level's strokes are shared among its
+    blocks, and how each stroke is added and optimized."""
 
     grids: Optional[list[int]] = None
     max_per_block: int = 6
-    overlap: float = 0.25  # blocks are this much larger than their grid cells
+    growth: float = 1.4  # each level's m over the last's (1: the paper's 1, 2, 3, …)
+    overlap: float = 0.0  # blocks are this much larger than their grid cells (the paper overlaps them)
+    split: Split = Split.error  # error: by the error left in each block; uniform: equally (paper)
+    crowd: float = 2.0  # split=error: the most strokes a block takes, × the level's mean
     steps_per_stroke: int = 8  # optimizer steps of the active set after each added stroke (paper: 20)
-    init_size: list[float] = field(default_factory=lambda: [0.1, 0.3])  # new strokes' sizes, × block width
+    init_size: list[float] = field(default_factory=lambda: [0.1, 0.3])  # new strokes' lengths, × block width
+    palette: bool = True  # stroke colours stay within the target's around each stroke
 
 
 @dataclass
 class StyleConfig:
-    """Paint in the style of ``image`` (paper §3.5); ``image: null`` paints without style."""
+    """Paint in the style of ``image`` (paper §3.5); ``image: null`` paints without style.
+
+    Both modes recolour the painting with one map shared by every stroke (nsp.painter.stylize);
+    ``full`` then optimizes every parameter for the style's texture. ``weight`` (β_sty) is the one
+    content/style balance: 0 keeps the photo's lightness (and, in full mode, adds no texture);
+    larger values give the style's tones and texture more say. docs/style.md measures it.
+    """
 
     image: Optional[str] = None
-    mode: StyleMode = StyleMode.full  # full: every stroke parameter; color: colour parameters only
-    weight: float = 0.5  # β_sty (paper 0.5)
-    steps: int = 200  # paper 200
+    mode: StyleMode = StyleMode.full  # full: every stroke parameter; color: a shared recolouring, shapes kept
+    weight: float = 0.5  # β_sty (paper 0.5): lightness moves β/(1+β) of the way to the style's; full: style loss weight
+    steps: int = 200  # full mode's optimizer steps (paper 200); colour mode takes none
     size: int = 128  # long side of the canvas the style steps run on (CPU-friendly)
     backbone: Backbone = Backbone.vgg19  # vgg19 (ImageNet weights, offline) or random (no weights needed)
     weights: Optional[str] = None  # VGG-19 state dict; None: the torch hub cache
-    color_weight: float = 2.0  # colour mode: weight of the sliced-Wasserstein colour term
 
 
 @dataclass
@@ -75,8 +87,10 @@ class PaintConfig:
     background: str = "white"  # the canvas colour: black, white or #rrggbb
     render_size: int = 1024  # long side of final.png and painting.svg
     work_size: int = 256  # long side of the canvas the strokes are optimized on
-    animation_size: int = 256  # long side of animation.gif
-    animation_frames: int = 50
+    animation_size: int = 512  # long side of animation.gif
+    # animation.gif's frames after the empty canvas: at most this many, the same number of strokes
+    # each (the last maybe fewer); None: one frame per stroke
+    animation_frames: Optional[int] = 100
     seed: int = 0
     # torch CPU threads. Each step's tensors are small: more threads gain little, and on a busy
     # machine they wait on each other (3-5× slower measured with two on two shared cores).

@@ -1,8 +1,17 @@
-"""Style transfer on strokes (paper §3.5): after the content painting, every stroke of the painting
-is optimized further on the whole canvas with L = content loss + β_sty·L_style.
+"""Style transfer on strokes (paper §3.5), after the content painting.
 
-``mode="full"`` changes every parameter (colour and texture of the style), ``mode="color"`` only the
-colour parameters (the paper's colour-only row); shape parameters then stay bit for bit.
+Both modes first recolour the painting toward the style image with one map shared by every stroke
+(:class:`nsp.style.Recoloring`), so colours that were alike stay alike:
+
+- ``mode="color"`` stops there: only colour parameters change, shape parameters stay bit for bit,
+  and the lightness keeps the photo's structure.
+- ``mode="full"`` then optimizes every parameter on the whole canvas with
+  L = content loss + β_sty·L_style, for the style's texture. The content loss compares the canvas
+  with the photo recoloured by the same map, so it keeps the picture, not its old colours. Last, a
+  shared map puts the chroma back on the style's: the style loss of random filters barely sees flat
+  colour, so the strokes' hues drift while they take the texture.
+
+β_sty (``weight``) is the one content/style balance of both modes.
 """
 from __future__ import annotations
 
@@ -11,9 +20,12 @@ from typing import Callable, Sequence
 import torch
 from torch import Tensor
 from torch.optim import Optimizer
+from torch.optim.lr_scheduler import LambdaLR
 
 from nsp.brushes import Brush
 from nsp.engine import paint_canvas
+from nsp.painter.optimize import optimize_strokes
+from nsp.style import Recoloring, StyleLoss
 
 MODES = ("full", "color")
 
@@ -23,40 +35,59 @@ def stylize(
     strokes: Tensor,
     target: Tensor,
     content: Callable[[Tensor, Tensor], dict[str, Tensor]],
-    style: Callable[[Tensor], Tensor],
+    style: StyleLoss,
     optimizer: Callable[[list[Tensor]], Optimizer],
     *,
-    weight: float = 0.5,
+    weight: float = 0.25,
     steps: int = 200,
     mode: str = "full",
     background: str = "white",
     softness: float = 0.5,
     callbacks: Sequence[Callable[[int, dict[str, float]], None]] = (),
 ) -> Tensor:
-    """Optimize ``strokes`` (N, d) so the painting keeps ``target`` (3, H, W) and takes the style.
+    """Restyle ``strokes`` (N, d), a painting of ``target`` (3, H, W), in the style of ``style.image``.
 
-    The canvas is the soft vector engine at the target's size. ``content(canvas, target)`` returns
-    the painter's terms with their weighted ``total``; ``style(canvas)`` the style loss.
-    Returns the stylized strokes (N, d) in [0, 1]; each callback gets (step, losses).
+    The canvas is the vector engine at the target's size. ``content(canvas, target)`` returns the
+    painter's terms with their weighted ``total``; ``style(canvas)`` the style loss. ``weight`` is
+    β_sty: how far the lightness follows the style's, and in full mode the style loss's weight in
+    the ``steps`` optimizer steps (colour mode takes none).
+    Returns the stylized strokes (N, d) in [0, 1]; each callback gets (step, losses) after each step.
     """
     if mode not in MODES:
         raise ValueError(f"style.mode={mode}: expected one of {', '.join(MODES)}")
     _, height, width = target.shape
-    trainable = list(range(brush.d)) if mode == "full" else list(brush.color)
-    x = strokes.detach().clone()
-    free = x[:, trainable].clone().requires_grad_(True)  # only these move: the rest stays bit for bit
-    opt = optimizer([free])
-    for step in range(1, steps + 1):
-        params = x.index_copy(1, torch.tensor(trainable), free)
-        canvas = paint_canvas(brush, params, height, width, background, softness=softness)[None]
-        losses = content(canvas, target[None])
+    with torch.no_grad():
+        painting = paint_canvas(brush, strokes, height, width, background)
+    recoloring = Recoloring.fit(painting, style.image[0], weight)
+    x = recoloring.strokes(brush, strokes)
+    if mode == "color":
+        return x
+    target = recoloring(target, dim=0)[None]  # the photo in the style's colours
+    x.requires_grad_(True)
+    opt = optimizer([x])
+    warm_up = _bias_correction(opt)
+
+    def objective() -> tuple[Tensor, dict[str, Tensor]]:
+        canvas = paint_canvas(brush, x, height, width, background, softness=softness)[None]
+        losses = content(canvas, target)
         losses["style"] = style(canvas)
         losses["total"] = losses["total"] + weight * losses["style"]
-        opt.zero_grad()
-        losses["total"].backward()
-        opt.step()
-        with torch.no_grad():
-            free.clamp_(0, 1)
+        return canvas, losses
+
+    for step, (_, losses) in enumerate(optimize_strokes(x, opt, steps, objective), start=1):
+        warm_up.step()
         for callback in callbacks:
-            callback(step, {name: float(value.detach()) for name, value in losses.items()})
-    return x.index_copy(1, torch.tensor(trainable), free.detach())
+            callback(step, losses)
+    with torch.no_grad():
+        painting = paint_canvas(brush, x, height, width, background)
+    return Recoloring.fit(painting, style.image[0], 0.0).strokes(brush, x)  # weight 0: lightness as optimized
+
+
+def _bias_correction(opt: Optimizer) -> LambdaLR:
+    """Scales RMSprop's rate by √(1 − α^t) at step t (no change for other optimizers).
+
+    RMSprop's running mean square starts at zero, so its first steps are up to 1/√(1 − α) = 10×
+    the rate (α = 0.99): on a finished painting that first jolt scatters every stroke.
+    """
+    alpha = opt.param_groups[0].get("alpha")
+    return LambdaLR(opt, lambda t: (1 - alpha ** (t + 1)) ** 0.5 if alpha else 1.0)

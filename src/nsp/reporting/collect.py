@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -72,6 +73,7 @@ def read_job(path: Path) -> Job:
 def read_curves(path: Path) -> dict[str, list[tuple[int, float]]]:
     """Every scalar tag of the TensorBoard event files under ``path``, merged over event dirs."""
     curves: dict[str, dict[int, float]] = {}
+    logging.getLogger("tensorboard").setLevel(logging.WARNING)  # its reader's INFO lines are not the report's
     for events in sorted({f.parent for f in path.rglob("events.out.tfevents.*")}):
         accumulator = EventAccumulator(str(events), size_guidance={"scalars": 0}).Reload()  # 0: keep all points
         for tag in accumulator.Tags()["scalars"]:

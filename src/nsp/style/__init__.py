@@ -1,5 +1,6 @@
 """Style transfer (paper §3.5): losses that pull a painting toward a style image's texture
-(Gram matrices of a feature network) and colours (sliced Wasserstein)."""
+(Gram matrices of a feature network) and colours (sliced Wasserstein), the recolouring shared by
+a whole painting, and the measures of a stylized painting (:mod:`nsp.style.measures`)."""
 from nsp.style.features import (
     BACKBONES,
     RandomFeatures,
@@ -10,12 +11,13 @@ from nsp.style.features import (
     random_features,
     vgg19_features,
 )
-from nsp.style.image import load_style_image
 from nsp.style.losses import StyleLoss, gram, gram_loss, sliced_wasserstein, style_loss
+from nsp.style.recolor import Recoloring
 
 __all__ = [
     "BACKBONES",
     "RandomFeatures",
+    "Recoloring",
     "StyleLoss",
     "TappedFeatures",
     "WeightsNotFound",
@@ -23,7 +25,6 @@ __all__ = [
     "gram",
     "gram_loss",
     "hub_cache_path",
-    "load_style_image",
     "random_features",
     "sliced_wasserstein",
     "style_loss",

@@ -62,12 +62,10 @@ class StyleLoss(nn.Module):
 
     Args:
         image: the style image as used, (1, 3, H, W) in [0, 1]; Grams depend on the pattern's
-            scale in pixels, so size it like the canvas (:func:`nsp.style.load_style_image`).
+            scale in pixels, so size it like the canvas.
         backbone: ``vgg19`` or ``random`` (see :mod:`nsp.style.features`).
         weights: VGG-19 state-dict path; ``None`` reads the torch hub cache.
-        seed: the random backbone's filters and the colour term's projections.
-        color_weight: weight of the sliced-Wasserstein colour term (``style.mode=color``); 0 omits it.
-        projections: random directions per colour-term evaluation.
+        seed: the random backbone's filters.
     """
 
     def __init__(
@@ -76,16 +74,11 @@ class StyleLoss(nn.Module):
         backbone: str = "vgg19",
         weights: str | os.PathLike | None = None,
         seed: int = 0,
-        color_weight: float = 0.0,
-        projections: int = 64,
     ):
         super().__init__()
         if image.ndim != 4 or image.shape[:2] != (1, 3):
             raise ValueError(f"the style image must be (1, 3, H, W), got {tuple(image.shape)}")
         self.features = feature_network(backbone, weights, seed)
-        self.color_weight = color_weight
-        self.projections = projections
-        self.generator = torch.Generator().manual_seed(seed)
         self.register_buffer("image", image)
         with torch.no_grad():
             grams = [gram(f) for f in self.features(image)]
@@ -98,16 +91,7 @@ class StyleLoss(nn.Module):
         """The style image's Gram matrices, one (1, C, C) per feature map."""
         return [getattr(self, f"gram_{i}") for i in range(self.layers)]
 
-    def terms(self, canvas: Tensor) -> dict[str, Tensor]:
-        """Unweighted terms for ``canvas`` (B, 3, H, W) or (3, H, W) in [0, 1]: ``gram``, and
-        ``color`` when ``color_weight`` is non-zero; scalars, for logging."""
-        canvas = canvas if canvas.ndim == 4 else canvas[None]
-        out = {"gram": gram_loss([gram(f) for f in self.features(canvas)], self.grams)}
-        if self.color_weight:
-            out["color"] = sliced_wasserstein(canvas, self.image, self.projections, self.generator)
-        return out
-
     def forward(self, canvas: Tensor) -> Tensor:
-        """The style loss of ``canvas`` (B, 3, H, W) or (3, H, W): gram + color_weight · color -> scalar."""
-        terms = self.terms(canvas)
-        return terms["gram"] + self.color_weight * terms.get("color", 0.0)
+        """The Gram loss of ``canvas`` (B, 3, H, W) or (3, H, W) in [0, 1] against the style -> scalar."""
+        canvas = canvas if canvas.ndim == 4 else canvas[None]
+        return gram_loss([gram(f) for f in self.features(canvas)], self.grams)

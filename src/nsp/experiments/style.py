@@ -1,0 +1,139 @@
+"""The style-transfer study (paper §3.5) as a painting experiment: each photo is painted once, then
+stylized toward each style image in colour mode and in full mode, and every result is measured
+(:mod:`nsp.style.measures`) against its plain painting, its photo and its style.
+
+``grid(cfg, photos, styles) -> metrics`` runs on ``nsp.paint``'s config: the painting's settings
+(``brush``, ``strokes``, ``work_size``, ``renderer``, ``loss``, ``schedule``, ``optimizer``, ``seed``,
+``background``) and the style's (``style.size``: the canvas of the style steps and of every
+measure; ``weight``, ``steps``, ``backbone``, ``weights``), ``output_dir``;
+``conf/paint/experiment/style_grid.yaml`` chooses the images.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from hydra.utils import instantiate
+from omegaconf import DictConfig, OmegaConf
+from torch import Tensor
+from torchvision.utils import make_grid
+
+from nsp.engine import paint_canvas
+from nsp.io.export import write_json, write_png
+from nsp.painter.images import BUILTIN, load_image, resize
+from nsp.painter.run import prepare
+from nsp.painter.stylize import MODES, stylize
+from nsp.style import StyleLoss
+from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
+
+TEXTURES = ("brick", "grass", "gravel")  # scikit-image's grey textures
+TARGETS = {"color_distance_drop": 0.5, "coherence": 0.05, "ssim_ratio": 0.9}  # colour mode: ≥, ≤, ≥
+COLUMNS = ("color_distance", "color_distance_drop", "coherence", "luminance_ssim", "ssim_ratio", "style_loss",
+           "texture_distance")
+
+
+def style_image(name: str, size: int) -> Tensor:
+    """A built-in style image, long side ``size``: a texture of :data:`TEXTURES` (grey) or a photo
+    of ``nsp.painter.images.BUILTIN``, as RGB (3, h, w) in [0, 1]."""
+    if name in TEXTURES:
+        import skimage.data
+
+        gray = torch.from_numpy(np.asarray(getattr(skimage.data, name)(), dtype=np.float32) / 255)
+        return resize(gray.expand(3, -1, -1), size)
+    if name in BUILTIN:
+        return resize(load_image(name, max_side=size), size)
+    raise ValueError(f"style {name}: expected one of {', '.join(TEXTURES + tuple(BUILTIN))}")
+
+
+def measure(image: Tensor, plain: Tensor, photo: Tensor, style: Tensor, loss: StyleLoss) -> dict[str, float]:
+    """The measures of one painting ``image`` (3, H, W) of ``photo`` against its ``plain`` painting
+    and its ``style`` image; ``style_loss`` is the style steps' own (``loss``)."""
+    with torch.no_grad():
+        style_loss = float(loss(image))
+    return {"color_distance": color_distance(image, style), "coherence": coherence(plain, image),
+            "luminance_ssim": luminance_ssim(image, photo), "style_loss": style_loss,
+            "texture_distance": texture_distance(image, style)}
+
+
+def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flower"),
+         styles: tuple[str, ...] = ("gravel", "brick", "rocket")) -> dict:
+    """Paint every photo, stylize it toward every style in both modes, measure all.
+
+    Writes ``pairs.json`` (per photo, style and mode — ``plain``, ``color``, ``full`` — the
+    measures, with ``color_distance_drop`` = 1 − distance / the plain painting's and ``ssim_ratio``
+    = luminance SSIM / the plain painting's), ``table.md``, ``grid.png`` (a row per pair: photo,
+    style, plain, colour, full) and ``metrics.json``: colour mode's worst case of each target
+    measure, how many pairs meet all three targets, the mean texture distance of the plain paintings
+    and of each mode's, and ``seconds``.
+    """
+    start = time.perf_counter()
+    if cfg.threads:
+        torch.set_num_threads(cfg.threads)  # as a painting does: the same numbers in a run and in a sweep
+    out = Path(cfg.output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows, tiles = [], []
+    for photo_name in photos:
+        painter, photo, _ = prepare(OmegaConf.merge(cfg, {"image": photo_name, "style": {"image": None}}))
+        brush, loss = painter.brush, painter.loss
+        strokes = painter.paint(resize(photo, cfg.work_size), cfg.strokes)
+        photo = resize(photo, cfg.style.size)
+        height, width = photo.shape[1:]
+        plain = paint_canvas(brush, strokes, height, width, cfg.background)
+        for style_name in styles:
+            image = style_image(style_name, cfg.style.size)
+            style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
+            paintings = {"plain": plain}
+            for mode in MODES:
+                styled = stylize(brush, strokes, photo, loss, style, instantiate(cfg.optimizer),
+                                 weight=cfg.style.weight, steps=cfg.style.steps, mode=mode,
+                                 background=cfg.background, softness=cfg.renderer.softness)
+                paintings[mode] = paint_canvas(brush, styled, height, width, cfg.background)
+            base = measure(plain, plain, photo, image, style)
+            for mode, painting in paintings.items():
+                row = measure(painting, plain, photo, image, style)
+                row["color_distance_drop"] = 1 - row["color_distance"] / base["color_distance"]
+                row["ssim_ratio"] = row["luminance_ssim"] / base["luminance_ssim"]
+                rows.append({"photo": photo_name, "style": style_name, "mode": mode} | row)
+            tiles += [tile(x, cfg.style.size) for x in (photo, image, paintings["plain"], paintings["color"],
+                                                         paintings["full"])]
+    write_json(out / "pairs.json", {"pairs": rows})
+    (out / "table.md").write_text(table(rows))
+    write_png(out / "grid.png", make_grid(torch.stack(tiles).clamp(0, 1), nrow=5, padding=2, pad_value=0.5))
+    metrics = summary(rows) | {"seconds": round(time.perf_counter() - start, 2), "strokes": cfg.strokes}
+    write_json(out / "metrics.json", metrics)
+    return metrics
+
+
+def tile(image: Tensor, size: int) -> Tensor:
+    """``image`` (3, h, w), long side ``size``, centred on a white size×size square (3, size, size)."""
+    out = torch.ones(3, size, size)
+    height, width = image.shape[1:]
+    top, left = (size - height) // 2, (size - width) // 2
+    out[:, top:top + height, left:left + width] = image
+    return out
+
+
+def summary(rows: list[dict]) -> dict:
+    """Colour mode's worst case of each target measure (:data:`TARGETS`) and how many pairs meet all
+    three; the mean texture distance of the plain paintings and of each mode's."""
+    color = [r for r in rows if r["mode"] == "color"]
+    met = [r["color_distance_drop"] >= TARGETS["color_distance_drop"] and r["coherence"] <= TARGETS["coherence"]
+           and r["ssim_ratio"] >= TARGETS["ssim_ratio"] for r in color]
+    texture = {mode: [r["texture_distance"] for r in rows if r["mode"] == mode] for mode in ("plain", *MODES)}
+    return {
+        "color_distance_drop_min": round(min(r["color_distance_drop"] for r in color), 4),
+        "coherence_max": round(max(r["coherence"] for r in color), 4),
+        "ssim_ratio_min": round(min(r["ssim_ratio"] for r in color), 4),
+        "pairs_meeting_targets": f"{sum(met)}/{len(met)}",
+    } | {f"texture_distance_{mode}": round(sum(values) / len(values), 4) for mode, values in texture.items()}
+
+
+def table(rows: list[dict]) -> str:
+    """The measures as a Markdown table, a line per photo, style and mode."""
+    head = ["photo", "style", "mode", *COLUMNS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        lines.append("| " + " | ".join([r["photo"], r["style"], r["mode"], *(f"{r[c]:.3f}" for c in COLUMNS)]) + " |")
+    return "\n".join(lines) + "\n"
