@@ -81,17 +81,21 @@ class StyleConfig:
 
 @dataclass
 class PaintConfig:
-    image: str = "astronaut"  # a PNG/JPEG path, or a built-in photo (see nsp.painter.images.BUILTIN)
+    """``python -m nsp.paint``'s keys. The five a user sets most (image, strokes, background,
+    render_size, seed) have their defaults in conf/paint/paint.yaml, where they read first; the
+    others here. Each default lives in one place."""
+
+    image: str = MISSING  # a PNG/JPEG path, or a built-in photo (see nsp.painter.images.BUILTIN)
     brush: BrushConfig = MISSING
-    strokes: int = 500
-    background: str = "white"  # the canvas colour: black, white or #rrggbb
-    render_size: int = 1024  # long side of final.png and painting.svg
+    strokes: int = MISSING
+    background: str = MISSING  # the canvas colour: black, white or #rrggbb
+    render_size: int = MISSING  # long side of final.png and painting.svg
     work_size: int = 256  # long side of the canvas the strokes are optimized on
     animation_size: int = 512  # long side of animation.gif
     # animation.gif's frames after the empty canvas: at most this many, the same number of strokes
     # each (the last maybe fewer); None: one frame per stroke
     animation_frames: Optional[int] = 100
-    seed: int = 0
+    seed: int = MISSING
     # torch CPU threads. Each step's tensors are small: more threads gain little, and on a busy
     # machine they wait on each other (3-5× slower measured with two on two shared cores).
     threads: Optional[int] = 1
