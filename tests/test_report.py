@@ -178,7 +178,9 @@ def test_a_single_run_dir_and_a_folder_of_runs_are_reported(tmp_path, capsys):
              [(50, 10.0), (100, 12.0)])
     run = tmp_path / "12-00-00_dcgan_tape"
     cli([str(run)])
-    assert capsys.readouterr().out.splitlines()[0] == str(run / "report.md")
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 1 and out[0].startswith("reported 1 run in ")  # one summary line, naming the report
+    assert out[0].endswith(f": {run / 'report.md'} (and report.csv, 2 plots)")  # the curve and the bar chart
     report = (run / "report.md").read_text()
     assert "1 job: 1 completed." in report and (run / "val_psnr.png").is_file()
     assert "| job | val/psnr | steps | seconds |\n|---|---:|---:|---:|\n| 12-00-00_dcgan_tape | 12.00 | 100 | 9.5 |\n" in report

@@ -4,6 +4,7 @@ is imported only once the command line has been read."""
 from __future__ import annotations
 
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
@@ -87,8 +88,10 @@ def render(cfg: DictConfig) -> Path:
 
 
 def main(cfg: DictConfig) -> None:
+    start = time.perf_counter()
     try:
-        print(f"wrote {render(cfg)}")
+        out = render(cfg)
+        print(f"wrote {out} in {time.perf_counter() - start:.1f} s")
     except BadInput as err:
         fail(str(err))
     except KeyboardInterrupt:

@@ -10,6 +10,7 @@ imported only once the command line has been read.
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 
 from nsp.cli import fail
@@ -31,14 +32,16 @@ def cli(argv: list[str] | None = None) -> None:
                         help="a multirun's sweep dir, a folder of run dirs or one run's dir "
                              "(default: the newest sweep under multirun/)")
     args = parser.parse_args(argv)
-    from nsp.reporting import latest_sweep, write_report
+    from nsp.reporting import collect, latest_sweep, write_report
 
+    start = time.perf_counter()
     try:
-        written = write_report(args.dir or latest_sweep(Path("multirun")))
+        report, table, *plots = write_report(args.dir or latest_sweep(Path("multirun")))
     except BadInput as error:
         fail(str(error))
-    for path in written:
-        print(path)
+    jobs = len(collect(report.parent))
+    print(f"reported {jobs} run{'s' * (jobs != 1)} in {time.perf_counter() - start:.1f} s: {report} "
+          f"(and {table.name}, {len(plots)} plot{'s' * (len(plots) != 1)})")
 
 
 if __name__ == "__main__":
