@@ -1,8 +1,9 @@
-"""nsp as users install it: a wheel, not this checkout. Its four commands run from any folder."""
+"""nsp as users install it: a wheel, pip-installed into a fresh venv, not this checkout. Its four
+commands run from any folder."""
 import json
-import os
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 ROOT = Path(__file__).parents[1]
@@ -12,16 +13,22 @@ def test_a_wheel_carries_its_configs_and_its_four_commands_run_outside_the_check
     subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", str(ROOT),
                     "-w", str(tmp_path / "wheel")], check=True, capture_output=True, cwd=tmp_path)
     wheel = next((tmp_path / "wheel").glob("nsp-*.whl"))
-    subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(tmp_path / "site"), str(wheel)],
-                   check=True, capture_output=True)
-    env = os.environ | {"PYTHONPATH": str(tmp_path / "site")}  # ahead of this checkout's editable install
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True)
+    python = venv / "bin" / "python"
+    site = Path(subprocess.run([python, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                               check=True, capture_output=True, text=True).stdout.strip())
+    # The dependencies (torch, Lightning, Hydra …) are this environment's, offline: its site-packages
+    # joins the path as a plain dir, so this checkout's editable install (a hook in a .pth) stays out.
+    (site / "dependencies.pth").write_text(sysconfig.get_path("purelib") + "\n")
+    subprocess.run([python, "-m", "pip", "install", "-q", "--no-deps", str(wheel)], check=True, capture_output=True)
 
     def run(*args: str) -> str:
-        done = subprocess.run([sys.executable, *args], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+        done = subprocess.run([python, *args], cwd=tmp_path, capture_output=True, text=True, timeout=300)
         assert done.returncode == 0, done.stderr
         return done.stdout
 
-    assert run("-c", "import nsp; print(nsp.__file__)").startswith(str(tmp_path / "site"))
+    assert run("-c", "import nsp; print(nsp.__file__)").startswith(str(site))
     run("-m", "nsp.paint", "strokes=6", "work_size=32", "render_size=64", "animation_size=32", "progress=false",
         "hydra.run.dir=painting")
     run("-m", "nsp.render", "strokes=painting/strokes.json", "size=48", "out=again.png")
