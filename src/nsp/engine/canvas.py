@@ -1,6 +1,7 @@
 """Whole paintings: an ordered stroke list composited onto a coloured canvas."""
 from __future__ import annotations
 
+import math
 import re
 
 import torch
@@ -25,6 +26,35 @@ def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
     raise BadInput(f"background={value} is not a colour; expected black, white or #rrggbb")
 
 
+class TiledCanvas:
+    """A canvas kept as tiles (rows·cols, 3, tile²) while strokes are painted onto it, so painting
+    a few strokes costs only the tiles they touch, and a region is read back without untiling the
+    rest (an animation's frames)."""
+
+    def __init__(self, canvas: Tensor, tile: int = 8):
+        """``canvas``: (3, H, W) in [0, 1], the picture to paint on."""
+        self.height, self.width = canvas.shape[-2:]
+        self.tile = tile
+        self.tiles = to_tiles(canvas, tile)
+
+    def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = 256) -> None:
+        """Composite ``strokes`` (N, d), in order, ``chunk`` at a time (memory stays bounded)."""
+        for start in range(0, strokes.shape[0], chunk):
+            part = rasterize(brush, strokes[start : start + chunk], self.height, self.width, softness=softness, tile=self.tile)
+            self.tiles = composite_tiles(part, self.tiles)
+
+    def image(self, top: int = 0, bottom: int | None = None, left: int = 0, right: int | None = None) -> Tensor:
+        """The canvas, or its rows top:bottom and columns left:right: (3, h, w)."""
+        bottom = self.height if bottom is None else bottom
+        right = self.width if right is None else right
+        t, rows, cols = self.tile, math.ceil(self.height / self.tile), math.ceil(self.width / self.tile)
+        r0, c0 = top // t, left // t
+        r1, c1 = math.ceil(bottom / t), math.ceil(right / t)
+        part = self.tiles.view(rows, cols, 3, t * t)[r0:r1, c0:c1].reshape(-1, 3, t * t)
+        image = untile(part, (r1 - r0) * t, (c1 - c0) * t, t)
+        return image[:, top - r0 * t : bottom - r0 * t, left - c0 * t : right - c0 * t]
+
+
 def paint_canvas(
     brush: Brush,
     strokes: Tensor,
@@ -46,8 +76,6 @@ def paint_canvas(
     if canvas is None:
         color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)
         canvas = color[:, None, None].expand(3, height, width)
-    tiled = to_tiles(canvas, tile)
-    for start in range(0, strokes.shape[0], chunk):
-        part = rasterize(brush, strokes[start : start + chunk], height, width, softness=softness, tile=tile)
-        tiled = composite_tiles(part, tiled)
-    return untile(tiled, height, width, tile)
+    tiled = TiledCanvas(canvas, tile)
+    tiled.paint(brush, strokes, softness=softness, chunk=chunk)
+    return tiled.image()

@@ -265,10 +265,11 @@ def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
     rank = torch.arange(len(order), device=order.device) - first
     by_rank = torch.argsort(rank, stable=True)
     counts = torch.bincount(rank).tolist() if len(rank) else []
+    canvas = canvas.clone()  # then blended in place, a layer's tiles at a time
     start = 0
     for count in counts:
         layer = order[by_rank[start : start + count]]
         start += count
         t, fg, alpha = tiles.tile[layer], tiles.fg[layer], tiles.alpha[layer, None]
-        canvas = canvas.index_put((t,), alpha * fg + (1 - alpha) * canvas[t])
+        canvas.index_put_((t,), alpha * fg + (1 - alpha) * canvas[t])
     return canvas

@@ -14,11 +14,7 @@ from typing import TypeVar
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
-from torchvision.models import VGG19_Weights
-from torchvision.models.vgg import cfgs, make_layers
-from torchvision.transforms import Normalize
 
-IMAGENET1K = VGG19_Weights.IMAGENET1K_V1
 BACKBONES = ("vgg19", "random")
 M = TypeVar("M", bound=nn.Module)
 
@@ -27,15 +23,24 @@ class WeightsNotFound(FileNotFoundError):
     """The VGG-19 weights file is nowhere it was looked for."""
 
 
-def _imagenet_normalize() -> Normalize:
-    """The input normalization the ImageNet weights expect, as torchvision defines it."""
-    preset = IMAGENET1K.transforms()
-    return Normalize(preset.mean, preset.std)
+class ImageNetNormalize(nn.Module):
+    """The input normalization the ImageNet weights expect (torchvision's ``IMAGENET1K`` preset's
+    mean and std), here so that the random backbone runs without importing torchvision (2 s)."""
+
+    def __init__(self):
+        super().__init__()
+        self.register_buffer("mean", torch.tensor([0.485, 0.456, 0.406])[:, None, None], persistent=False)
+        self.register_buffer("std", torch.tensor([0.229, 0.224, 0.225])[:, None, None], persistent=False)
+
+    def forward(self, images: Tensor) -> Tensor:
+        return (images - self.mean) / self.std
 
 
 def hub_cache_path() -> Path:
     """Where torchvision keeps the ``VGG19_Weights.IMAGENET1K_V1`` file once downloaded."""
-    return Path(torch.hub.get_dir()) / "checkpoints" / os.path.basename(IMAGENET1K.url)
+    from torchvision.models import VGG19_Weights
+
+    return Path(torch.hub.get_dir()) / "checkpoints" / os.path.basename(VGG19_Weights.IMAGENET1K_V1.url)
 
 
 def _weights_file(weights: str | os.PathLike | None) -> Path:
@@ -56,7 +61,7 @@ class TappedFeatures(nn.Module):
 
     def __init__(self, body: nn.Sequential, taps: tuple[int, ...]):
         super().__init__()
-        self.normalize = _imagenet_normalize()
+        self.normalize = ImageNetNormalize()
         self.body = body
         self.taps = frozenset(taps)
 
@@ -81,6 +86,8 @@ def vgg19_features(
     the torch hub cache file of ``VGG19_Weights.IMAGENET1K_V1``. Nothing is downloaded.
     Only the layers up to the last requested conv are built.
     """
+    from torchvision.models.vgg import cfgs, make_layers
+
     path = _weights_file(weights)
     cfg, convs = [], 0
     for v in cfgs["E"]:  # torchvision's VGG-19 layout, cut after the last conv needed
@@ -121,7 +128,7 @@ class RandomFeatures(nn.Module):
         scales: int = 3,
     ):
         super().__init__()
-        self.normalize = _imagenet_normalize()
+        self.normalize = ImageNetNormalize()
         self.scales = scales
         self.kernel_sizes = kernel_sizes
         generator = torch.Generator().manual_seed(seed)
