@@ -150,3 +150,29 @@ def test_closest_point_on_a_bezier_matches_dense_sampling(generator):
 
     best = torch.stack([dist(torch.full_like(px, s)) for s in torch.linspace(0, 1, 401)]).amin(0)
     assert torch.all(dist(t) <= best + 1e-2)
+
+
+def test_compiled_path_is_chosen_only_where_it_pays(generator, monkeypatch):
+    from nsp.engine import fused
+
+    brush = BRUSHES["watercolor"]
+    few, many = moderate(brush, 10, generator), moderate(brush, 20000, generator)
+    monkeypatch.setattr(fused, "_compiled_keys", lambda: set())  # a machine that never compiled
+    assert not fused.pays(brush, few, 128, 128)
+    assert not fused.pays(brush, many, 128, 128)  # seconds of eager work: not worth a cold compile
+    assert fused.pays(brush, many, 4096, 4096)  # an hour eager: worth even a cold compile
+    warm = {fused._key(brush, 128, 128, None)}
+    monkeypatch.setattr(fused, "_compiled_keys", lambda: warm)
+    assert fused.pays(brush, many, 128, 128)  # the kernels are cached: loading them pays
+    assert not fused.pays(brush, many, 128, 128, softness=1.0)  # not these kernels
+    assert not fused.pays(brush, few, 128, 128)
+    assert not fused.pays(brush, many.requires_grad_(), 4096, 4096)  # gradients stay eager
+    assert not fused.pays(BRUSHES["tape"], few, 128, 128)
+
+
+def test_paint_canvas_compiled_equals_eager(generator):
+    brush = BRUSHES["markerpen"]
+    x = moderate(brush, 40, generator)
+    eager = paint_canvas(brush, x, 48, 40, compile=False)
+    fused = paint_canvas(brush, x, 48, 40, compile=True)
+    assert (fused - eager).abs().max() < 0.1 and ((fused - eager).abs() > 1e-4).float().mean() < 1e-3

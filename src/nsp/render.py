@@ -31,6 +31,7 @@ USAGE = Usage(
         "out=PATH": "what to write: .png, .svg or .gif (required)",
         "size=PX": "the long side (512)",
         "background=COLOUR": "white, black or #rrggbb (the stroke file's own)",
+        "compile=BOOL": "shade on the compiled engine: true, false, or null: where it pays (null)",
     },
     groups={"brush": "the brush of a reference .npz file; nsp's JSON names its own"},
 )
@@ -42,6 +43,7 @@ class RenderConfig:
     out: str = MISSING
     size: int = 512
     background: Optional[str] = None  # None: the stroke file's own background
+    compile: Optional[bool] = None  # None: where it is expected to pay (nsp.engine.fused.pays)
     brush: Optional[Any] = None  # a ``brush`` group option (nsp.config.BrushConfig); for reference .npz files only
 
 
@@ -81,7 +83,7 @@ def render(cfg: DictConfig) -> Path:
     except OSError as err:
         raise BadInput(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
     try:
-        write_painting(out, brush, painting.strokes, height, width, background)
+        write_painting(out, brush, painting.strokes, height, width, background, cfg.compile)
     except OSError as err:
         raise BadInput(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out

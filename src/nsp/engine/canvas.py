@@ -8,6 +8,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush
+from nsp.engine.fused import pays
 from nsp.engine.raster import composite_tiles, rasterize, to_tiles, untile
 from nsp.errors import BadInput
 
@@ -37,10 +38,13 @@ class TiledCanvas:
         self.tile = tile
         self.tiles = to_tiles(canvas, tile)
 
-    def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = 256) -> None:
-        """Composite ``strokes`` (N, d), in order, ``chunk`` at a time (memory stays bounded)."""
+    def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = 256,
+              compile: bool = False) -> None:
+        """Composite ``strokes`` (N, d), in order, ``chunk`` at a time (memory stays bounded);
+        ``compile``: shade them on the compiled path (:mod:`nsp.engine.fused`)."""
         for start in range(0, strokes.shape[0], chunk):
-            part = rasterize(brush, strokes[start : start + chunk], self.height, self.width, softness=softness, tile=self.tile)
+            part = rasterize(brush, strokes[start : start + chunk], self.height, self.width, softness=softness,
+                             tile=self.tile, compile=compile)
             self.tiles = composite_tiles(part, self.tiles)
 
     def image(self, top: int = 0, bottom: int | None = None, left: int = 0, right: int | None = None) -> Tensor:
@@ -66,16 +70,20 @@ def paint_canvas(
     canvas: Tensor | None = None,
     chunk: int = 256,
     tile: int = 8,
+    compile: bool | None = None,
 ) -> Tensor:
     """Composite ``strokes`` (N, d), in order, onto a canvas: (3, H, W) in [0, 1].
 
     Only the tiles each stroke touches are rendered and blended, ``chunk`` strokes at a time, so
     a painting of thousands of strokes renders at any size in bounded memory.
-    ``canvas`` (3, H, W), if given, replaces the plain ``background``.
+    ``canvas`` (3, H, W), if given, replaces the plain ``background``. ``compile``: shade on the
+    compiled path; None: where it is expected to finish sooner (:func:`nsp.engine.fused.pays`).
     """
     if canvas is None:
         color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)
         canvas = color[:, None, None].expand(3, height, width)
+    if compile is None:
+        compile = pays(brush, strokes, height, width, softness)
     tiled = TiledCanvas(canvas, tile)
-    tiled.paint(brush, strokes, softness=softness, chunk=chunk)
+    tiled.paint(brush, strokes, softness=softness, chunk=chunk, compile=compile)
     return tiled.image()

@@ -16,6 +16,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush, Pixels
+from nsp.engine.fused import fused
 
 PASS_PIXELS = 1 << 18  # pixels shaded per pass of the inner loop
 
@@ -102,12 +103,6 @@ def subtiles(
     return b[:, None].expand_as(inside)[inside], (row * fine_cols + col).flatten(1)[inside]
 
 
-@functools.cache
-def compiled(stage):
-    """An engine stage compiled by TorchInductor into fused kernels, on first use (kernels are cached on disk)."""
-    return torch.compile(stage, dynamic=True)
-
-
 def rasterize(
     brush: Brush,
     x: Tensor,
@@ -121,13 +116,12 @@ def rasterize(
     """Evaluate strokes ``x`` (B, d) on the tiles of a ``height``×``width`` canvas they touch.
 
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
-    before ``brush.paint`` shades their pixels. ``compile`` runs the distance culling and the
-    shading through :func:`compiled`, which fuses each into vectorized loops: several times faster
-    for large batches, after a one-off compile of seconds per brush.
+    before ``brush.paint`` shades their pixels. ``compile`` shades them through
+    :func:`nsp.engine.fused.fused` (TorchInductor): several times faster, after loading or
+    compiling the kernels (:func:`nsp.engine.fused.pays` tells when that is worth it).
     """
     coverage = antialiased if softness is None else functools.partial(soft, softness=softness)
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
-    stage = compiled if compile else (lambda fn: fn)
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
@@ -139,7 +133,7 @@ def rasterize(
         for size in reversed(sizes):
             if coarse is not None:
                 b, t = subtiles(b, t, box, height, width, coarse, size, margin)
-            keep = stage(near_tiles)(brush, x.detach()[b], t, height, width, size, margin)
+            keep = near_tiles(brush, x.detach()[b], t, height, width, size, margin)
             b, t, coarse = b[keep], t[keep], size
 
     # A pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be recycled
@@ -147,7 +141,7 @@ def rasterize(
     step = max(1, PASS_PIXELS // tile**2)
     offsets = torch.arange(tile, device=x.device, dtype=x.dtype)
     dx, dy = offsets.repeat(tile), offsets.repeat_interleave(tile)  # pixel n of a tile: row n // tile, column n % tile
-    shade = stage(shade_tiles)
+    shade = functools.partial(fused, shade_tiles, height=height, width=width, softness=softness) if compile else shade_tiles
     passes = [shade(brush, xs, ts, dx, dy, height, width, tile, coverage) for xs, ts in zip(x[b].split(step), t.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, math.ceil(height / tile), math.ceil(width / tile))
@@ -199,7 +193,7 @@ def render(
         softness: ``None`` for the antialiased engine; a width in pixels for the soft,
             differentiable mode (the painter's ``analytic`` renderer).
         tile: tile side in pixels.
-        compile: fuse the per-pixel work with ``torch.compile`` (see :func:`rasterize`).
+        compile: shade the pixels through the compiled path (see :func:`rasterize`).
         out: optional (B, 4, H, W) tensor to render into, reused across calls: a fresh tensor of
             tens of megabytes costs the operating system's page faults on every call.
 
@@ -211,8 +205,7 @@ def render(
     rows, cols, n = tiles.rows, tiles.cols, len(x)
     whole = rows * tile == height and cols * tile == width
     image = clear(out) if whole and out is not None else x.new_zeros(n, 4, rows * tile, cols * tile)
-    write = compiled(write_tiles) if compile else write_tiles
-    write(image.view(-1, tile), tiles.stroke, tiles.tile, tiles.fg, tiles.alpha, rows, cols)
+    write_tiles(image.view(-1, tile), tiles.stroke, tiles.tile, tiles.fg, tiles.alpha, rows, cols)
     if out is not None and not whole:
         out.copy_(image[..., :height, :width])
     elif out is None:

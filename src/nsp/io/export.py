@@ -17,6 +17,7 @@ from torch import Tensor
 from nsp.brushes import Brush
 from nsp.brushes.svg import hex_color
 from nsp.engine.canvas import TiledCanvas, paint_canvas, parse_color
+from nsp.engine.fused import pays
 from nsp.errors import BadInput
 
 EXTENSIONS = (".png", ".svg", ".gif")
@@ -55,7 +56,7 @@ def write_png(path: str | Path, image: Tensor) -> None:
 
 def write_gif(
     path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
-    frames: int | None = GIF_FRAMES, seconds: float = 4.0,
+    frames: int | None = GIF_FRAMES, seconds: float = 4.0, compile: bool | None = None,
 ) -> None:
     """An animation of the strokes (N, d) appearing in order: the empty canvas, then a frame at
     each of :func:`frame_ends` (at most ``frames`` after the first, the same strokes each; None:
@@ -65,11 +66,12 @@ def write_gif(
     palette = gif_palette(brush, strokes, height, width, background)
     color = torch.tensor(parse_color(background), dtype=strokes.dtype)[:, None, None]
     canvas = TiledCanvas(color.expand(3, height, width))
+    compile = pays(brush, strokes, height, width) if compile is None else compile
     ends = frame_ends(len(strokes), frames)
     images = [_indexed(canvas.image(), palette)]  # each frame kept as a palette image only (1 byte a pixel)
     with torch.no_grad():
         for start, end in zip(ends[:-1], ends[1:]):
-            canvas.paint(brush, strokes[start:end])
+            canvas.paint(brush, strokes[start:end], compile=compile)
             images.append(images[-1].copy())
             left, top, right, bottom = _touched(brush, strokes[start:end], height, width)
             if right > left and bottom > top:  # only the pixels the frame's strokes touched are mapped again
@@ -142,15 +144,16 @@ def write_svg(
         temporary.write_text(svg)
 
 
-def write_painting(path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str) -> None:
-    """Write ``path`` as PNG, SVG or GIF by its extension."""
+def write_painting(path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str,
+                   compile: bool | None = None) -> None:
+    """Write ``path`` as PNG, SVG or GIF by its extension; ``compile`` as :func:`paint_canvas`'s."""
     suffix = Path(path).suffix.lower()
     if suffix == ".png":
         with torch.no_grad():
-            write_png(path, paint_canvas(brush, strokes, height, width, background))
+            write_png(path, paint_canvas(brush, strokes, height, width, background, compile=compile))
     elif suffix == ".svg":
         write_svg(path, brush, strokes, height, width, background)
     elif suffix == ".gif":
-        write_gif(path, brush, strokes, height, width, background)
+        write_gif(path, brush, strokes, height, width, background, compile=compile)
     else:
         raise BadInput(f"out={path}: unknown extension '{suffix}', expected one of {', '.join(EXTENSIONS)}")
