@@ -213,6 +213,8 @@ RENDER = [
     ("background not a colour", ["strokes={painting}", "background=blue-ish", "out={tmp}/r/out.png"], "blue-ish"),
     ("brush unknown", ["strokes={npz}", "brush=oil", "out={tmp}/r/out.png"], "brush=oil"),
     ("key misspelt", ["strokes={painting}", "sise=64", "out={tmp}/r/out.png"], "Did you mean 'size'"),
+    ("device unknown", ["strokes={painting}", "device=gpu", "out={tmp}/r/out.png"], "device=gpu"),
+    ("device beyond the GPUs here", ["strokes={painting}", "device=cuda:7", "out={tmp}/r/out.png"], "device=cuda:7"),
 ]
 
 

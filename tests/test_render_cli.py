@@ -196,3 +196,16 @@ def test_an_interrupted_write_leaves_the_old_file_and_no_other(tmp_path):
     with atomic_path(tmp_path / "o.png") as temporary:
         temporary.write_text("new")
     assert [p.name for p in tmp_path.iterdir()] == ["o.png"] and (tmp_path / "o.png").read_text() == "new"
+
+
+def test_device_auto_is_the_gpu_torch_sees_else_the_cpu(painting, tmp_path):
+    from nsp.engine.device import resolve_device
+
+    assert resolve_device("auto") == torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    assert resolve_device("CPU") == torch.device("cpu")
+    path = painting("watercolor")
+    for device in ("cpu", "auto"):
+        render(OmegaConf.merge(OmegaConf.structured(RenderConfig), {"strokes": str(path), "out": str(tmp_path / f"{device}.png"),
+                                                                     "size": 64, "device": device}))
+    same = read(tmp_path / "cpu.png") - read(tmp_path / "auto.png")
+    assert np.abs(same).max() <= (2 if torch.cuda.is_available() else 0)

@@ -32,6 +32,7 @@ USAGE = Usage(
         "size=PX": "the long side (512)",
         "background=COLOUR": "white, black or #rrggbb (the stroke file's own)",
         "compile=BOOL": "shade on the compiled engine: true, false, or null: where it pays (null)",
+        "device=NAME": "cpu, cuda, cuda:N or auto (cpu)",
     },
     groups={"brush": "the brush of a reference .npz file; nsp's JSON names its own"},
 )
@@ -44,6 +45,7 @@ class RenderConfig:
     size: int = 512
     background: Optional[str] = None  # None: the stroke file's own background
     compile: Optional[bool] = None  # None: where it is expected to pay (nsp.engine.fused.pays)
+    device: str = "cpu"  # cpu, cuda, cuda:N or auto
     brush: Optional[Any] = None  # a ``brush`` group option (nsp.config.BrushConfig); for reference .npz files only
 
 
@@ -54,6 +56,7 @@ def render(cfg: DictConfig) -> Path:
     """Render ``cfg.strokes`` to ``cfg.out``; returns the written path. The file appears whole or
     not at all: an error or an interrupt leaves no partial file."""
     from nsp.engine.canvas import parse_color
+    from nsp.engine.device import resolve_device
     from nsp.engine.memory import check_canvas, stroke_cover
     from nsp.io.export import EXTENSIONS, frame_ends, write_painting
     from nsp.io.strokes import load_strokes
@@ -69,6 +72,7 @@ def render(cfg: DictConfig) -> Path:
         raise BadInput(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS)}")
     if cfg.size <= 0:
         raise BadInput(f"size={cfg.size}: expected a positive number of pixels")
+    device = resolve_device(cfg.device)
     name = cfg.brush.name if cfg.get("brush") else None  # reference .npz files only
     painting = load_strokes(cfg.strokes, brush=name, size=cfg.size)
     background = cfg.background if cfg.background is not None else painting.background
@@ -83,7 +87,7 @@ def render(cfg: DictConfig) -> Path:
     except OSError as err:
         raise BadInput(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
     try:
-        write_painting(out, brush, painting.strokes, height, width, background, cfg.compile)
+        write_painting(out, brush, painting.strokes.to(device), height, width, background, cfg.compile)
     except OSError as err:
         raise BadInput(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out

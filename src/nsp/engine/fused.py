@@ -56,8 +56,9 @@ def _remember(key: str) -> None:
 
 def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float | None = None) -> bool:
     """Whether rendering ``strokes`` (N, d) on a ``height``×``width`` canvas is expected to finish
-    sooner compiled (its start-up included, warm or cold) than eager. Never while gradients flow."""
-    if strokes.requires_grad and torch.is_grad_enabled():
+    sooner compiled (its start-up included, warm or cold) than eager. Never while gradients flow,
+    nor off the CPU (the estimates are the CPU's)."""
+    if strokes.device.type != "cpu" or (strokes.requires_grad and torch.is_grad_enabled()):
         return False
     box = brush.extent(strokes.detach(), height, width)  # (N, 4) px
     w = (box[:, 2].clamp(0, width) - box[:, 0].clamp(0, width)).clamp(min=0)

@@ -64,7 +64,7 @@ def write_gif(
     palette, without dithering: nothing flickers, and pixels no stroke touched stay the same bytes,
     which keeps the file small."""
     palette = gif_palette(brush, strokes, height, width, background)
-    color = torch.tensor(parse_color(background), dtype=strokes.dtype)[:, None, None]
+    color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)[:, None, None]
     canvas = TiledCanvas(color.expand(3, height, width))
     compile = pays(brush, strokes, height, width) if compile is None else compile
     ends = frame_ends(len(strokes), frames)
@@ -95,7 +95,7 @@ def gif_palette(brush: Brush, strokes: Tensor, height: int, width: int, backgrou
     strokes later covered count too."""
     scale = min(1.0, side / max(height, width))
     small = (max(1, round(height * scale)), max(1, round(width * scale)))
-    canvas = torch.tensor(parse_color(background), dtype=strokes.dtype)[:, None, None].expand(3, *small)
+    canvas = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)[:, None, None].expand(3, *small)
     cuts = np.linspace(0, len(strokes), 5).round().astype(int)
     views = []
     with torch.no_grad():
