@@ -176,3 +176,11 @@ def test_paint_canvas_compiled_equals_eager(generator):
     eager = paint_canvas(brush, x, 48, 40, compile=False)
     fused = paint_canvas(brush, x, 48, 40, compile=True)
     assert (fused - eager).abs().max() < 0.1 and ((fused - eager).abs() > 1e-4).float().mean() < 1e-3
+
+
+def test_paint_canvas_leaves_the_given_canvas_alone(generator):
+    brush = BRUSHES["tape"]
+    canvas = torch.rand(3, 16, 16, generator=generator)
+    before = canvas.clone()
+    painted = paint_canvas(brush, moderate(brush, 20, generator), 16, 16, canvas=canvas)
+    assert torch.equal(canvas, before) and not torch.equal(painted, before)

@@ -75,6 +75,13 @@ class Brush:
         """Bounding boxes (P, 4) of strokes ``x`` (P, d) in pixels: x_min, y_min, x_max, y_max."""
         raise NotImplementedError
 
+    def box_area(self, x: Tensor, height: int, width: int) -> Tensor:
+        """Pixels of each stroke's bounding box inside the canvas: (P,), what culling starts from."""
+        box = self.extent(x.detach(), height, width)
+        w = (box[:, 2].clamp(0, width) - box[:, 0].clamp(0, width)).clamp(min=0)
+        h = (box[:, 3].clamp(0, height) - box[:, 1].clamp(0, height)).clamp(min=0)
+        return w * h
+
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
         """A 1-Lipschitz lower bound (pixels) of the signed distance, for culling: (P, N)."""
         raise NotImplementedError

@@ -27,6 +27,26 @@ def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
     raise BadInput(f"background={value} is not a colour; expected black, white or #rrggbb")
 
 
+CHUNK_PIXELS = 1 << 24  # bounding-box pixels of the strokes rendered at once; their tiles take ~16 B a pixel
+
+
+def chunks(brush: Brush, strokes: Tensor, height: int, width: int, most: int = 256) -> list[Tensor]:
+    """``strokes`` (N, d) cut into consecutive runs of at most ``most`` strokes whose bounding
+    boxes on a ``height``×``width`` canvas hold at most :data:`CHUNK_PIXELS` pixels together (a
+    larger stroke alone): what :class:`TiledCanvas` renders at once, so its memory is bounded by
+    the canvas, however large the strokes."""
+    total = brush.box_area(strokes, height, width).cumsum(0)
+    parts, start = [], 0
+    while start < len(strokes):
+        before = float(total[start - 1]) if start else 0.0
+        end = int(torch.searchsorted(total, torch.tensor(before + CHUNK_PIXELS, dtype=total.dtype, device=total.device),
+                                     right=True))
+        end = min(max(end, start + 1), start + most)
+        parts.append(strokes[start:end])
+        start = end
+    return parts
+
+
 class TiledCanvas:
     """A canvas kept as tiles (rows·cols, 3, tile²) while strokes are painted onto it, so painting
     a few strokes costs only the tiles they touch, and a region is read back without untiling the
@@ -36,16 +56,15 @@ class TiledCanvas:
         """``canvas``: (3, H, W) in [0, 1], the picture to paint on."""
         self.height, self.width = canvas.shape[-2:]
         self.tile = tile
-        self.tiles = to_tiles(canvas, tile)
+        self.tiles = to_tiles(canvas, tile)  # a copy: strokes are blended into it in place
 
     def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = 256,
               compile: bool = False) -> None:
-        """Composite ``strokes`` (N, d), in order, ``chunk`` at a time (memory stays bounded);
-        ``compile``: shade them on the compiled path (:mod:`nsp.engine.fused`)."""
-        for start in range(0, strokes.shape[0], chunk):
-            part = rasterize(brush, strokes[start : start + chunk], self.height, self.width, softness=softness,
-                             tile=self.tile, compile=compile)
-            self.tiles = composite_tiles(part, self.tiles)
+        """Composite ``strokes`` (N, d), in order, a :func:`chunks` at a time (memory stays
+        bounded); ``compile``: shade them on the compiled path (:mod:`nsp.engine.fused`)."""
+        for part in chunks(brush, strokes, self.height, self.width, chunk):
+            tiles = rasterize(brush, part, self.height, self.width, softness=softness, tile=self.tile, compile=compile)
+            composite_tiles(tiles, self.tiles)
 
     def image(self, top: int = 0, bottom: int | None = None, left: int = 0, right: int | None = None) -> Tensor:
         """The canvas, or its rows top:bottom and columns left:right: (3, h, w)."""

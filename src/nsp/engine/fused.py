@@ -60,10 +60,7 @@ def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float
     nor off the CPU (the estimates are the CPU's)."""
     if strokes.device.type != "cpu" or (strokes.requires_grad and torch.is_grad_enabled()):
         return False
-    box = brush.extent(strokes.detach(), height, width)  # (N, 4) px
-    w = (box[:, 2].clamp(0, width) - box[:, 0].clamp(0, width)).clamp(min=0)
-    h = (box[:, 3].clamp(0, height) - box[:, 1].clamp(0, height)).clamp(min=0)
-    eager = float((w * h).sum()) * EAGER_NS.get(brush.name, EAGER_NS["watercolor"]) * 1e-9
+    eager = float(brush.box_area(strokes, height, width).sum()) * EAGER_NS.get(brush.name, EAGER_NS["watercolor"]) * 1e-9
     start = WARM_SECONDS if _key(brush, height, width, softness) in _compiled_keys() else COLD_SECONDS
     return eager * (1 - COMPILED_SHARE.get(brush.name, 1.0)) > start
 

@@ -2,8 +2,9 @@
 too-large ``size`` fails at once with a size that fits instead of swapping for minutes and crashing.
 
 A render's peak is the canvas itself (a few float copies of it) plus the stroke tiles of the
-largest chunk :func:`~nsp.engine.canvas.paint_canvas` composites at once; both grow with the
-pixel count, the second also with how much of the canvas a chunk's strokes cover.
+largest chunk :func:`~nsp.engine.canvas.chunks` composites at once: at most
+:data:`~nsp.engine.canvas.CHUNK_PIXELS` box pixels, or one stroke's, so on a large canvas the
+canvas itself dominates.
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import os
 from torch import Tensor
 
 from nsp.brushes.base import Brush
-from nsp.engine.canvas import paint_canvas
+from nsp.engine.canvas import CHUNK_PIXELS, chunks
 from nsp.errors import BadInput
 
 # Peak RSS over the pre-render baseline (ru_maxrss) of write_painting on the CPU:
@@ -42,11 +43,8 @@ def available_bytes() -> int:
 def stroke_cover(brush: Brush, strokes: Tensor, height: int, width: int) -> float:
     """How many canvases the bounding boxes of the largest chunk of strokes (N, d) that
     :func:`paint_canvas` composites at once cover, on a ``height``×``width`` canvas (0 for N = 0)."""
-    box = brush.extent(strokes.detach(), height, width)  # (N, 4) px: x_min, y_min, x_max, y_max
-    w = (box[:, 2].clamp(0, width) - box[:, 0].clamp(0, width)).clamp(min=0)
-    h = (box[:, 3].clamp(0, height) - box[:, 1].clamp(0, height)).clamp(min=0)
-    chunks = (w * h).split(paint_canvas.__kwdefaults__["chunk"])
-    return max((float(area.sum()) for area in chunks), default=0.0) / (height * width)
+    parts = chunks(brush, strokes, height, width)
+    return max((float(brush.box_area(part, height, width).sum()) for part in parts), default=0.0) / (height * width)
 
 
 def check_canvas(height: int, width: int, key: str, cover: float = TYPICAL_COVER, frames: int = 0) -> None:
@@ -59,6 +57,7 @@ def check_canvas(height: int, width: int, key: str, cover: float = TYPICAL_COVER
             is a typical painting's, for checks made before the strokes exist.
         frames: GIF frames the render holds at once (0 for a still image).
     """
+    cover = min(cover, max(1.0, CHUNK_PIXELS / (height * width)))  # chunks hold at most CHUNK_PIXELS, or a stroke
     need = (CANVAS_BYTES + TILE_BYTES * cover + FRAME_BYTES * frames) * height * width
     free = available_bytes()
     if need > free:

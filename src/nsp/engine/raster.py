@@ -246,7 +246,8 @@ def composite(fg: Tensor, alpha: Tensor, canvas: Tensor) -> Tensor:
 
 
 def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
-    """Blend sparse strokes onto a tiled canvas (rows·cols, 3, tile²), in stroke order.
+    """Blend sparse strokes onto a tiled canvas (rows·cols, 3, tile²), in stroke order, in place
+    (autograd follows: no op saves the canvas itself); returns it.
 
     Pairs are grouped into layers by their rank among the pairs of the same tile, so one layer
     touches each tile at most once; the loop runs over layers (the deepest tile's stroke count),
@@ -258,7 +259,6 @@ def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
     rank = torch.arange(len(order), device=order.device) - first
     by_rank = torch.argsort(rank, stable=True)
     counts = torch.bincount(rank).tolist() if len(rank) else []
-    canvas = canvas.clone()  # then blended in place, a layer's tiles at a time
     start = 0
     for count in counts:
         layer = order[by_rank[start : start + count]]

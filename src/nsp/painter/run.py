@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import torch
@@ -163,8 +164,10 @@ def paint(cfg: DictConfig) -> dict:
         frames = len(frame_ends(len(strokes), cfg.animation_frames))
         log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
         files = time.perf_counter()
-        final = write_strokes_and_png(out, strokes, *shared)
-        write_vector_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames)
+        with ThreadPoolExecutor(2) as pool:  # final.png and the animation at once: a core each
+            png = pool.submit(write_strokes_and_png, out, strokes, *shared)
+            pool.submit(write_vector_files, out, strokes, *shared, cfg.animation_size, cfg.animation_frames).result()
+            final = png.result()
         scores = similarity(final, photo)
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)
