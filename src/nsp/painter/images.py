@@ -2,6 +2,7 @@
 resizing, and comparing (PSNR)."""
 from __future__ import annotations
 
+import importlib.util
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Iterator
@@ -15,31 +16,25 @@ from torch import Tensor
 from nsp.errors import BadInput
 
 
-def _skimage(name: str) -> Callable[[], np.ndarray]:
-    def load() -> np.ndarray:
-        import skimage.data
+def _data_file(package: str, folder: str, name: str) -> Callable[[], Path]:
+    """Where a photo that ships inside ``package`` lies; found without importing the package's
+    modules (scikit-image's loaders pull in scipy, about a second)."""
+    def where() -> Path:
+        spec = importlib.util.find_spec(package)
+        if spec is None or not spec.submodule_search_locations:
+            raise ImageError(f"image={name.split('.')[0]} ships with {package}, which is not installed")
+        return Path(spec.submodule_search_locations[0]) / folder / name
 
-        return getattr(skimage.data, name)()
-
-    return load
-
-
-def _sklearn(name: str) -> Callable[[], np.ndarray]:
-    def load() -> np.ndarray:
-        from sklearn.datasets import load_sample_image  # imported only when asked: slow to import
-
-        return load_sample_image(name)
-
-    return load
+    return where
 
 
-BUILTIN: dict[str, Callable[[], np.ndarray]] = {
-    "astronaut": _skimage("astronaut"),
-    "chelsea": _skimage("chelsea"),
-    "coffee": _skimage("coffee"),
-    "rocket": _skimage("rocket"),
-    "flower": _sklearn("flower.jpg"),
-    "china": _sklearn("china.jpg"),
+BUILTIN: dict[str, Callable[[], Path]] = {
+    "astronaut": _data_file("skimage", "data", "astronaut.png"),
+    "chelsea": _data_file("skimage", "data", "chelsea.png"),
+    "coffee": _data_file("skimage", "data", "coffee.png"),
+    "rocket": _data_file("skimage", "data", "rocket.jpg"),
+    "flower": _data_file("sklearn", "datasets/images", "flower.jpg"),
+    "china": _data_file("sklearn", "datasets/images", "china.jpg"),
 }
 
 
@@ -62,9 +57,7 @@ def load_image(spec: str, max_side: int | None = None, key: str = "image") -> Te
     ``max_side`` (aspect kept), reduced while it is decoded, so the full size is never held as
     floats (nor, for JPEG, decoded at all).
     """
-    if spec in BUILTIN:
-        return _decode(Image.fromarray(BUILTIN[spec]()), max_side)
-    path = Path(spec).expanduser()
+    path = BUILTIN[spec]() if spec in BUILTIN else Path(spec).expanduser()
     if not path.is_file():
         raise ImageError(f"{key}={spec}: no such file; {VALID}")
     with _readable(f"{key}={spec}"):
