@@ -52,7 +52,8 @@ def test_a_painting_leaves_every_file_valid(photo, tmp_path):
     with Image.open(out / "animation.gif") as gif:
         assert gif.n_frames > 2 and gif.size == (48, 32)
     assert json.loads((out / "metrics.json").read_text()) == metrics
-    assert set(metrics) == {"psnr", "ssim", "seconds", "strokes"} and metrics["strokes"] == 12
+    assert set(metrics) == {"psnr", "ssim", "seconds", "painting_seconds", "strokes"} and metrics["strokes"] == 12
+    assert 0 < metrics["painting_seconds"] < metrics["seconds"]
     assert metrics["psnr"] > 8  # the blank canvas scores 5 dB
 
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
@@ -196,7 +197,7 @@ def test_a_multirun_paints_several_images_in_parallel_processes():
 
 def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_that_renders(photo, tmp_path, monkeypatch):
     from nsp.painter.painter import Painter
-    from nsp.render import render
+    from nsp.render import RenderConfig, render
 
     def ctrl_c(self, target, n):
         raise KeyboardInterrupt
@@ -206,15 +207,15 @@ def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_tha
     with pytest.raises(KeyboardInterrupt):
         paint(config(f"image={photo}", f"output_dir={out}", "background='#204060'", *TINY))
     assert len(load_strokes(out / "strokes.json").strokes) == 0
-    again = render(OmegaConf.create({"strokes": str(out / "strokes.json"), "out": str(tmp_path / "again.png"), "size": 30,
-                                     "background": None, "brush": None}))
+    again = render(OmegaConf.merge(OmegaConf.structured(RenderConfig),
+                                   {"strokes": str(out / "strokes.json"), "out": str(tmp_path / "again.png"), "size": 30}))
     pixels = np.asarray(Image.open(again))
     assert pixels.shape == (20, 30, 3) and (pixels == (0x20, 0x40, 0x60)).all()
 
 
 def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_stroke_file(photo, tmp_path):
     from nsp.io.export import write_svg
-    from nsp.render import render
+    from nsp.render import RenderConfig, render
 
     def frames(path: Path) -> list[np.ndarray]:
         return [np.asarray(frame.convert("RGB")) for frame in ImageSequence.Iterator(Image.open(path))]
@@ -227,8 +228,8 @@ def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_str
     painting = load_strokes(out / "strokes.json")
     assert painting.brush.texture_path == str(texture)
     for name, size in (("final.png", 96), ("painting.svg", 96), ("animation.gif", 48)):
-        again = render(OmegaConf.create({"strokes": str(out / "strokes.json"), "out": str(tmp_path / name),
-                                         "size": size, "background": None, "brush": None}))
+        again = render(OmegaConf.merge(OmegaConf.structured(RenderConfig),
+                                       {"strokes": str(out / "strokes.json"), "out": str(tmp_path / name), "size": size}))
         if name.endswith(".svg"):
             assert again.read_text() == (out / name).read_text()
         else:

@@ -151,7 +151,8 @@ def paint(cfg: DictConfig) -> dict:
                 with shielded():
                     write_strokes_and_png(out, painter.strokes(), *shared)
                 raise
-        phases.append(f"painted {len(strokes)} {painter.brush.name} strokes in {bar.seconds:.1f} s")
+        painting = bar.seconds
+        phases.append(f"painted {len(strokes)} {painter.brush.name} strokes in {painting:.1f} s")
         if style is not None:
             write_png(out / "style.png", style.image[0])
             try:
@@ -171,7 +172,8 @@ def paint(cfg: DictConfig) -> dict:
         scores = similarity(final, photo)
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)
-    metrics = scores | {"seconds": round(time.perf_counter() - start, 2), "strokes": len(strokes)}
+    metrics = scores | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
+                        "strokes": len(strokes)}
     write_json(out / "metrics.json", metrics)
     log.info(f"{', '.join(phases)}: PSNR {scores['psnr']:.2f} dB, SSIM {scores['ssim']:.3f}; {out}")
     return metrics
