@@ -257,12 +257,9 @@ def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
     tile_sorted = tiles.tile[order]
     first = torch.searchsorted(tile_sorted, tile_sorted, right=False)
     rank = torch.arange(len(order), device=order.device) - first
-    by_rank = torch.argsort(rank, stable=True)
+    layers = order[torch.argsort(rank, stable=True)]  # pairs by layer, each layer's in one run
     counts = torch.bincount(rank).tolist() if len(rank) else []
-    start = 0
-    for count in counts:
-        layer = order[by_rank[start : start + count]]
-        start += count
-        t, fg, alpha = tiles.tile[layer], tiles.fg[layer], tiles.alpha[layer, None]
-        canvas.index_put_((t,), alpha * fg + (1 - alpha) * canvas[t])
+    tile, fg, alpha = tiles.tile[layers], tiles.fg[layers], tiles.alpha[layers, None]
+    for t, f, a in zip(tile.split(counts), fg.split(counts), alpha.split(counts)):
+        canvas.index_put_((t,), torch.lerp(canvas[t], f, a))  # α·s + (1 − α)·h
     return canvas
