@@ -33,12 +33,17 @@ def soft(sd: Tensor, softness: float = 1.0) -> Tensor:
 
 @dataclass
 class Tiles:
-    """Strokes rasterized sparsely: the (stroke, tile) pairs they touch.
+    """Strokes rasterized sparsely: the (stroke, tile) pairs they touch, in layers.
+
+    A pair's layer is its rank among the pairs of its tile, in stroke order; pairs are sorted by
+    layer, so a layer is one run that touches each tile at most once, and blending the layers in
+    order paints every tile's strokes in order.
 
     Attributes:
-        stroke, tile: (P,) indices of the pairs, sorted by stroke.
+        stroke, tile: (P,) indices of the pairs.
         fg: (P, 3, tile²) foreground RGB of each pair's pixels.
         alpha: (P, tile²) their alpha.
+        layers: pairs in each layer, summing to P.
         rows, cols: the tiling.
     """
 
@@ -46,8 +51,18 @@ class Tiles:
     tile: Tensor
     fg: Tensor
     alpha: Tensor
+    layers: list[int]
     rows: int
     cols: int
+
+
+def in_layers(tile: Tensor) -> tuple[Tensor, list[int]]:
+    """The order (P,) that sorts pairs, given in stroke order, into layers (see :class:`Tiles`),
+    and the layers' sizes."""
+    by_tile = torch.argsort(tile, stable=True)  # stable: each tile's strokes stay in order
+    tile_sorted = tile[by_tile]
+    rank = torch.arange(len(tile), device=tile.device) - torch.searchsorted(tile_sorted, tile_sorted)
+    return by_tile[torch.argsort(rank, stable=True)], (torch.bincount(rank).tolist() if len(rank) else [])
 
 
 def to_tiles(image: Tensor, tile: int) -> Tensor:
@@ -135,6 +150,8 @@ def rasterize(
                 b, t = subtiles(b, t, box, height, width, coarse, size, margin)
             keep = near_tiles(brush, x.detach()[b], t, height, width, size, margin)
             b, t, coarse = b[keep], t[keep], size
+        order, layers = in_layers(t)  # b, in stroke order, stays so in each tile
+        b, t = b[order], t[order]
 
     # A pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be recycled
     # by the allocator instead of page-faulted in afresh by every op.
@@ -144,7 +161,7 @@ def rasterize(
     shade = functools.partial(fused, shade_tiles, height=height, width=width, softness=softness) if compile else shade_tiles
     passes = [shade(brush, xs, ts, dx, dy, height, width, tile, coverage) for xs, ts in zip(x[b].split(step), t.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
-    return Tiles(b, t, fg, alpha, math.ceil(height / tile), math.ceil(width / tile))
+    return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
 
 
 def shade_tiles(
@@ -249,17 +266,10 @@ def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
     """Blend sparse strokes onto a tiled canvas (rows·cols, 3, tile²), in stroke order, in place
     (autograd follows: no op saves the canvas itself); returns it.
 
-    Pairs are grouped into layers by their rank among the pairs of the same tile, so one layer
-    touches each tile at most once; the loop runs over layers (the deepest tile's stroke count),
-    not over strokes.
+    The loop runs over the layers of :class:`Tiles` (the deepest tile's stroke count), not over
+    strokes; a layer is one gather, one lerp and one scatter.
     """
-    order = torch.argsort(tiles.tile, stable=True)  # stable: keeps stroke order within a tile
-    tile_sorted = tiles.tile[order]
-    first = torch.searchsorted(tile_sorted, tile_sorted, right=False)
-    rank = torch.arange(len(order), device=order.device) - first
-    layers = order[torch.argsort(rank, stable=True)]  # pairs by layer, each layer's in one run
-    counts = torch.bincount(rank).tolist() if len(rank) else []
-    tile, fg, alpha = tiles.tile[layers], tiles.fg[layers], tiles.alpha[layers, None]
-    for t, f, a in zip(tile.split(counts), fg.split(counts), alpha.split(counts)):
-        canvas.index_put_((t,), torch.lerp(canvas[t], f, a))  # α·s + (1 − α)·h
+    sizes = tiles.layers
+    for t, fg, alpha in zip(tiles.tile.split(sizes), tiles.fg.split(sizes), tiles.alpha[:, None].split(sizes)):
+        canvas.index_put_((t,), torch.lerp(canvas[t], fg, alpha))  # α·s + (1 − α)·h
     return canvas
