@@ -69,6 +69,7 @@ PAINT = [  # (case id, overrides, words the one line must contain)
     ("key misspelt", ["strokse=3"], "Did you mean 'strokes'"),
     ("nested key misspelt", ["schedule.max_per_blok=3"], "Did you mean 'schedule.max_per_block'"),
     ("growth below one", ["schedule.growth=0.5"], "schedule.growth=0.5"),
+    ("candidates zero", ["schedule.candidates=0"], "schedule.candidates=0"),
     ("crowd below one", ["schedule.crowd=0"], "schedule.crowd=0"),
     ("experiment unknown", ["experiment=nope"], "experiment=nope"),
     ("unreadable override", ["strokes=[1,"], "strokes=[1,"),

@@ -12,7 +12,7 @@ from nsp.painter.images import resize
 from nsp.painter.losses import PaintLoss
 from nsp.painter.painter import Callback, Painter
 from nsp.painter.palette import Palette
-from nsp.painter.placement import place_strokes
+from nsp.painter.placement import largest_errors, place_strokes
 from nsp.painter.structure import orientation, structure_tensor
 from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
 
@@ -128,13 +128,17 @@ def portrait(side: int = 96) -> torch.Tensor:
     return image
 
 
-def test_a_portrait_gets_no_patch_of_colour_brighter_than_the_photo_around_it():
+@pytest.mark.parametrize("lr", [0.05, 0.1])
+def test_a_portrait_painted_with_overshooting_steps_gets_no_patch_of_colour_the_photo_lacks(lr):
     photo = portrait()
-    p = painter("oilpaint", steps_per_stroke=8, max_per_block=6, renderer=AnalyticRenderer(get_brush("oilpaint"), 0.5, 48))
-    painting = paint_canvas(p.brush, p.paint(photo, 120), 96, 96, "white")[None]
-    patches = torch.nn.functional.avg_pool2d(painting, 5, stride=1)  # a patch, not a stray pixel
-    allowed = torch.nn.functional.max_pool2d(photo[None], 9, stride=1, padding=2)  # what the photo has there
-    assert (patches - allowed).max() < 0.08
+    p = painter("tape", steps_per_stroke=8, renderer=AnalyticRenderer(get_brush("tape"), 0.5, 48))
+    p.optimizer = partial(torch.optim.RMSprop, lr=lr)  # steps 5-10x the tests' own: colours overshoot
+    painting = paint_canvas(p.brush, p.paint(photo, 60), 96, 96, "white")
+    patches = torch.nn.functional.avg_pool2d(painting[None], 5, stride=1)[0].flatten(1).T  # a patch, not a stray pixel
+    photo_colours = torch.nn.functional.avg_pool2d(photo[None], 5, stride=1)[0].flatten(1).T  # edges' blends included
+    # every patch has a colour the photo has somewhere, give or take edge blends with the blank canvas
+    # (measured with the palette: at most 0.12-0.14 away; without it: 0.41-0.78)
+    assert torch.cdist(patches, photo_colours).min(1).values.max() < 0.2
 
 
 def test_stroke_colours_are_clamped_to_the_targets_range_around_them():
@@ -194,6 +198,21 @@ def test_a_new_stroke_starts_on_the_largest_error_in_the_targets_colour():
     # head and tail colour: the patch's, averaged along the stroke (its edge samples blend with white)
     assert (x[0, 5:11] - torch.tensor([0.2, 0.1, 0.3] * 2)).abs().max() < 0.2
     assert 0.1 <= x[0, 2] <= 0.3 and x[0, 3] <= x[0, 2]  # elongated: thickness at most the length
+
+
+def test_new_strokes_are_tried_at_separate_regions_of_large_error_and_the_best_one_starts():
+    target = torch.ones(1, 3, 32, 32)
+    target[0, :, 20:28, 4:12] = 0.2  # the largest error
+    target[0, :, 2:10, 18:26] = 0.5  # a second region
+    rows, cols = largest_errors(torch.ones_like(target), target, torch.ones(1, 1, 32, 32), count=2)
+    assert 20 <= rows[0, 0] <= 27 and 4 <= cols[0, 0] <= 11  # largest first
+    assert 2 <= rows[0, 1] <= 9 and 18 <= cols[0, 1] <= 25  # not a neighbour of the first
+    p = painter("tape", candidates=2)
+    tried = place_strokes(p.brush, torch.ones_like(target), target, torch.ones(1, 1, 32, 32), (0.1, 0.3),
+                          torch.Generator().manual_seed(0), 2, (0.5, 1.0, 2.0))
+    assert tried.shape == (1, 6, p.brush.d)
+    chosen = p._place(torch.ones_like(target), target, torch.ones(1, 1, 32, 32), 32)
+    assert 20 / 31 <= chosen[0, 1] <= 27 / 31  # on the darker patch: it lowers the error most
 
 
 @pytest.mark.parametrize("name", list(BRUSHES))

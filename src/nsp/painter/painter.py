@@ -3,7 +3,8 @@ they reproduce the target; progressively, from one block to finer grids of overl
 
 Each level paints all its blocks as one batch (blocks × active strokes × pixels). A level's strokes
 are shared among its blocks by the error left when it starts (or equally, as in the paper). Strokes
-join a block's active set one at a time, at its largest error; after each addition the whole active
+join a block's active set one at a time: each is tried at a few regions of large error and lengths,
+and the one that lowers the block's error most joins; after each addition the whole active
 set takes ``steps_per_stroke`` optimizer steps (a block whose strokes are all placed is done: it
 took its 20 × N steps, paper §3.6), and each stroke's colours stay within those of the target
 around it. A finished level is rendered by the vector engine at the working resolution and is the
@@ -27,6 +28,7 @@ from nsp.painter.palette import Palette
 from nsp.painter.placement import place_strokes
 
 SPLITS = ("uniform", "error")
+LENGTHS = (0.5, 1.0, 2.0)  # a candidate stroke per length at each error peak, × the reach of the colour there
 
 
 class Callback:
@@ -61,6 +63,8 @@ class Painter:
             the error left in each (at most ``crowd`` times the mean); ``"uniform"``, equally (paper).
         crowd: the most strokes a block takes under ``split="error"``, as a multiple of the mean.
         init_size: range of new strokes' lengths, as fractions of the block width.
+        candidates: how many regions of large error each new stroke is tried at (a few lengths
+            each); the one that lowers the block's error most starts. 1: the largest error only.
         palette: keep each stroke's colours within the target's around it (see :class:`Palette`).
         background: canvas colour.
         generator: the only source of randomness (new strokes' sizes, angles, directions).
@@ -84,6 +88,7 @@ class Painter:
         split: str = "error",
         crowd: float = 2.0,
         init_size: tuple[float, float] = (0.1, 0.3),
+        candidates: int = 4,
         palette: bool = True,
         background: str = "white",
         generator: torch.Generator | None = None,
@@ -94,9 +99,9 @@ class Painter:
         self.grids, self.max_per_block, self.growth, self.overlap = grids, max_per_block, growth, overlap
         if split not in SPLITS:
             raise ValueError(f"split={split!r}: expected one of {', '.join(SPLITS)}")
-        if growth < 1 or crowd < 1:
-            raise ValueError(f"growth={growth}, crowd={crowd}: expected at least 1")
-        self.split, self.crowd, self.palette = split, crowd, palette
+        if growth < 1 or crowd < 1 or candidates < 1:
+            raise ValueError(f"growth={growth}, crowd={crowd}, candidates={candidates}: expected at least 1")
+        self.split, self.crowd, self.palette, self.candidates = split, crowd, palette, candidates
         self.steps_per_stroke, self.init_size, self.background = steps_per_stroke, tuple(init_size), background
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         self.callbacks = list(callbacks)
@@ -159,8 +164,7 @@ class Painter:
         for k in range(depth):
             live = exists[:, k].nonzero()[:, 0]  # (b,) the blocks that still take strokes
             with torch.no_grad():
-                x[live, k] = place_strokes(self.brush, current[live], goal[live], weights[live], self.init_size,
-                                           self.generator)
+                x[live, k] = self._place(current[live], goal[live], weights[live], size)
             painted[:, k] = exists[:, k]
             for callback in self.callbacks:
                 callback.on_strokes(self, len(live))
@@ -183,6 +187,20 @@ class Painter:
                 for callback in self.callbacks:
                     callback.on_step(self, self.step, scalars)
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
+
+    def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, size: int) -> Tensor:
+        """A new stroke for each block (B, 3, s, s each; weights (B, 1, s, s)): (B, d), the candidate
+        that, rendered once on the canvas, leaves the least error."""
+        if self.candidates == 1:
+            return place_strokes(self.brush, canvas, goal, weights, self.init_size, self.generator)
+        tried = place_strokes(self.brush, canvas, goal, weights, self.init_size, self.generator, self.candidates,
+                              LENGTHS)  # (B, C, d)
+        blocks, count, d = tried.shape
+        fg, alpha = self.renderer(tried.reshape(-1, d), size)
+        fg, alpha = fg.view(blocks, count, 3, size, size), alpha.view(blocks, count, 1, size, size)
+        out = alpha * fg + (1 - alpha) * canvas[:, None]
+        error = ((out - goal[:, None]).abs() * weights[:, None]).sum((2, 3, 4))  # (B, C)
+        return tried[torch.arange(blocks), error.argmin(1)]
 
     def _by_error(self, level: Level, under: Tensor, goal: Tensor, weights: Tensor) -> Level:
         """The level with its strokes shared by the mean |canvas − target| left in each block

@@ -4,6 +4,7 @@ optimizer refines a stroke that already helps instead of searching for one."""
 from __future__ import annotations
 
 import math
+from typing import Sequence
 
 import torch
 from torch import Tensor
@@ -18,16 +19,26 @@ def window(side: int) -> int:
     return max(3, side // 8 | 1)
 
 
-def largest_error(canvas: Tensor, target: Tensor, weights: Tensor) -> tuple[Tensor, Tensor]:
-    """Pixel (row, col) of the largest locally averaged |canvas − target| per block.
+def largest_errors(canvas: Tensor, target: Tensor, weights: Tensor, count: int = 1) -> tuple[Tensor, Tensor]:
+    """Pixels (row, col) of the ``count`` largest locally averaged |canvas − target| per block, at
+    least a window apart, largest first.
 
     canvas, target: (B, 3, h, w); weights: (B, 1, h, w), 0 where a pixel is padding.
-    Returns two (B,) long tensors. Averaging makes the pick a region that is wrong rather than
-    one stray pixel.
+    Returns two (B, count) long tensors. Averaging makes a pick a region that is wrong rather than
+    one stray pixel; keeping only local maxima makes the picks different regions.
     """
-    error = smooth((canvas - target).abs().sum(1, keepdim=True) * weights, window(canvas.shape[-1]))
-    index = error.flatten(1).argmax(1)
+    side = window(canvas.shape[-1])
+    error = smooth((canvas - target).abs().sum(1, keepdim=True) * weights, side)
     width = canvas.shape[-1]
+    picks = []
+    for _ in range(count):  # greedily, each pick clearing its neighbourhood (a plateau gives one pick)
+        index = error.flatten(1).argmax(1)
+        picks.append(index)
+        row, col = index // width, index % width
+        ys, xs = torch.arange(error.shape[-2]), torch.arange(width)
+        near = ((ys[None, :, None] - row[:, None, None]).abs() <= side) & ((xs[None, None] - col[:, None, None]).abs() <= side)
+        error = error.masked_fill(near[:, None], -1.0)
+    index = torch.stack(picks, 1)
     return index // width, index % width
 
 
@@ -38,8 +49,10 @@ def place_strokes(
     weights: Tensor,
     size: tuple[float, float],
     generator: torch.Generator,
+    peaks: int = 1,
+    scales: Sequence[float] = (1.0,),
 ) -> Tensor:
-    """One new stroke per block, centred on the region of its largest error.
+    """New strokes for each block, centred on the regions of its largest error.
 
     Args:
         brush: the brush.
@@ -47,36 +60,44 @@ def place_strokes(
         weights: (B, 1, h, w), 0 on padding.
         size: range of a new stroke's length, as fractions of the block's width.
         generator: draws the directions where the target is flat.
+        peaks: how many regions of large error get a stroke (see :func:`largest_errors`).
+        scales: a stroke per scale at each peak, its length that many times the reach along the forms.
 
     Returns:
-        (B, d) strokes in block coordinates, in [0, 1]. The stroke lies along the target's forms at
-        the error (the structure tensor's direction; a random one where the target is flat) and
-        spans the stretch, along and across them, over which the target keeps the colour there
+        (B, d) strokes in block coordinates, in [0, 1], with one peak and one scale; else
+        (B, peaks · len(scales), d), peak by peak. A stroke lies along the target's forms at the
+        error (the structure tensor's direction; a random one where the target is flat) and spans
+        the stretch, along and across them, over which the target keeps the colour there
         (:func:`~nsp.painter.structure.reach`), its length within ``size``; its colours are the
         target's along that stretch (a two-colour brush's head and tail those of either half);
         transparency 1. Rectangles (brushes with an angle) get centre, length, thickness and angle;
         Bézier brushes a straight centreline and a radius of half the thickness.
     """
     batch, _, h, w = canvas.shape
-    row, col = largest_error(canvas, target, weights)
+    rows, cols = largest_errors(canvas, target, weights, peaks)
+    structure = structure_tensor(target, window(w))
+    seeds = smooth(target, 3)
     pick = torch.arange(batch)
-    structure = structure_tensor(target, window(w))[pick, :, row, col]  # (B, 3)
-    along, coherence = orientation(structure)
-    flat = coherence < 0.05
-    direction = torch.where(flat, 2 * math.pi * torch.rand(batch, generator=generator, dtype=target.dtype), along)
-    seed = smooth(target, 3)[pick, :, row, col]  # (B, 3)
     lo, hi = size[0] * (w - 1) / 2, size[1] * (w - 1) / 2  # half-lengths in block pixels
-    colors, dist = reach(target, canvas, row.to(target.dtype), col.to(target.dtype), direction, seed, hi)
-    # the stroke spans the walks' stretch: centre halfway between their ends, half-extents clamped
-    shift = (dist[:, 0] - dist[:, 1]) / 2
-    half = ((dist[:, 0] + dist[:, 1]) / 2).clamp(lo, hi)
-    thick = ((dist[:, 2] + dist[:, 3]) / 2).clamp(max(0.5 * lo, 1.0), hi).minimum(half)
-    cx = col + shift * torch.cos(direction) + (dist[:, 2] - dist[:, 3]) / 2 * -torch.sin(direction)
-    cy = row + shift * torch.sin(direction) + (dist[:, 2] - dist[:, 3]) / 2 * torch.cos(direction)
-    head, tail = colors[:, 1].mean(1), colors[:, 0].mean(1)  # (B, 3): the −direction and +direction halves
-    middle = colors.mean((1, 2))
-    return _stroke(brush, cx / max(w - 1, 1), cy / max(h - 1, 1), direction, 2 * half / (w - 1),
-                   2 * thick / (w - 1), (head, tail) if brush.kinds.count("color") == 6 else (middle,))
+    out = []
+    for row, col in zip(rows.T, cols.T):
+        along, coherence = orientation(structure[pick, :, row, col])
+        flat = coherence < 0.05
+        direction = torch.where(flat, 2 * math.pi * torch.rand(batch, generator=generator, dtype=target.dtype), along)
+        colors, dist = reach(target, canvas, row.to(target.dtype), col.to(target.dtype), direction,
+                             seeds[pick, :, row, col], hi)
+        head, tail = colors[:, 1].mean(1), colors[:, 0].mean(1)  # (B, 3): the −direction and +direction halves
+        paint = (head, tail) if brush.kinds.count("color") == 6 else (colors.mean((1, 2)),)
+        # the stroke spans the walks' stretch: centre halfway between their ends, half-extents clamped
+        shift = (dist[:, 0] - dist[:, 1]) / 2
+        cx = col + shift * torch.cos(direction) + (dist[:, 2] - dist[:, 3]) / 2 * -torch.sin(direction)
+        cy = row + shift * torch.sin(direction) + (dist[:, 2] - dist[:, 3]) / 2 * torch.cos(direction)
+        for scale in scales:
+            half = (scale * (dist[:, 0] + dist[:, 1]) / 2).clamp(lo, hi)
+            thick = ((dist[:, 2] + dist[:, 3]) / 2).clamp(max(0.5 * lo, 1.0), hi).minimum(half)
+            out.append(_stroke(brush, cx / max(w - 1, 1), cy / max(h - 1, 1), direction, 2 * half / (w - 1),
+                               2 * thick / (w - 1), paint))
+    return out[0] if len(out) == 1 else torch.stack(out, 1)
 
 
 def _stroke(brush: Brush, cx: Tensor, cy: Tensor, direction: Tensor, length: Tensor, thickness: Tensor,

@@ -62,9 +62,10 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     s = cfg.schedule
     if s.steps_per_stroke < 0 or s.overlap < 0:
         raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.overlap={s.overlap}: expected ≥ 0")
-    if s.growth < 1 or s.crowd < 1:
-        raise BadInput(f"schedule.growth={s.growth}, schedule.crowd={s.crowd}: expected ≥ 1 (1: the paper's 1, 2, 3 … "
-                       "levels; a block's share at most crowd × the level's mean)")
+    if s.growth < 1 or s.crowd < 1 or s.candidates < 1:
+        raise BadInput(f"schedule.growth={s.growth}, schedule.crowd={s.crowd}, schedule.candidates={s.candidates}: "
+                       "expected ≥ 1 (1: the paper's 1, 2, 3 … levels; a block's share at most crowd × the level's "
+                       "mean; candidates 1: each stroke starts at the largest error)")
     if len(s.init_size) != 2 or not 0 < s.init_size[0] <= s.init_size[1] <= 1:
         raise BadInput(f"schedule.init_size={list(s.init_size)}: expected [low, high] with 0 < low ≤ high ≤ 1")
     if s.grids is not None and (not s.grids or min(s.grids) < 1):
@@ -93,7 +94,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.background))
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
                       growth=s.growth, overlap=s.overlap, split=str(s.split), crowd=s.crowd,
-                      steps_per_stroke=s.steps_per_stroke, init_size=s.init_size, palette=s.palette,
+                      steps_per_stroke=s.steps_per_stroke, init_size=s.init_size, candidates=s.candidates,
+                      palette=s.palette,
                       background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
     return painter, photo, style
 

@@ -57,6 +57,7 @@ class ScheduleConfig:
     crowd: float = 2.0  # split=error: the most strokes a block takes, × the level's mean
     steps_per_stroke: int = 8  # optimizer steps of the active set after each added stroke (paper: 20)
     init_size: list[float] = field(default_factory=lambda: [0.1, 0.3])  # new strokes' lengths, × block width
+    candidates: int = 4  # regions of large error a new stroke is tried at (3 lengths each); the best one starts
     palette: bool = True  # stroke colours stay within the target's around each stroke
 
 
