@@ -70,6 +70,8 @@ PAINT = [  # (case id, overrides, words the one line must contain)
     ("nested key misspelt", ["schedule.max_per_blok=3"], "Did you mean 'schedule.max_per_block'"),
     ("growth below one", ["schedule.growth=0.5"], "schedule.growth=0.5"),
     ("candidates zero", ["schedule.candidates=0"], "schedule.candidates=0"),
+    ("device unknown", ["device=gpu"], "device=gpu"),
+    ("device beyond the GPUs here", ["device=cuda:7"], "device=cuda:7"),
     ("crowd below one", ["schedule.crowd=0"], "schedule.crowd=0"),
     ("experiment unknown", ["experiment=nope"], "experiment=nope"),
     ("unreadable override", ["strokes=[1,"], "strokes=[1,"),

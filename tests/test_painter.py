@@ -300,3 +300,36 @@ def test_a_neural_renderer_paints_blocks_at_its_own_size():
     assert len(strokes) == 10 and set(sizes) == {24}
     unoptimized = painter("tape", steps_per_stroke=0).paint(patches(48, 48), 10)
     assert l1(p, strokes, patches(48, 48)) < l1(p, unoptimized, patches(48, 48))
+
+
+class _Placed(torch.overrides.TorchFunctionMode):
+    """Records each tensor factory that nsp's own code calls without naming a device: on a GPU,
+    such a tensor would land on the CPU beside CUDA ones (the CUDA path, untested here for want of
+    a GPU, stays correct by construction)."""
+
+    FACTORIES = {torch.tensor, torch.zeros, torch.ones, torch.full, torch.empty, torch.arange, torch.linspace,
+                 torch.rand, torch.randn, torch.randint}
+
+    def __init__(self):
+        super().__init__()
+        self.unplaced = set()
+
+    def __torch_function__(self, func, types, args=(), kwargs=None):
+        kwargs = kwargs or {}
+        if func in self.FACTORIES and "device" not in kwargs:
+            import traceback
+
+            caller = traceback.extract_stack()[-2]
+            if "/nsp/" in caller.filename:
+                self.unplaced.add(f"{caller.filename.split('/nsp/')[-1]}:{caller.lineno}")
+        return func(*args, **kwargs)
+
+
+@pytest.mark.parametrize("name", ["oilpaint", "watercolor"])
+def test_every_tensor_the_painter_and_its_files_make_goes_on_a_named_device(name, tmp_path):
+    from nsp.io.export import write_gif
+
+    with _Placed() as mode:
+        strokes = painter(name).paint(patches(32, 32), 9)
+        write_gif(tmp_path / "a.gif", get_brush(name), strokes, 24, 24, frames=3)
+    assert not mode.unplaced, sorted(mode.unplaced)

@@ -37,6 +37,7 @@ USAGE = Usage(
         "animation_frames=N": "at most N frames, the same strokes each (100); null: a frame per stroke",
         "style.image=PATH": "paint in the style of this image",
         "seed=N": "the one source of randomness (0)",
+        "device=NAME": "cpu, cuda, cuda:N or auto (cpu)",
         "hydra.run.dir=DIR": "where the files go (outputs/paint/<time>_<brush>)",
     },
     groups={

@@ -14,7 +14,7 @@ from nsp.errors import BadInput
 
 def _smooth_noise(n: int, knots: int, generator: torch.Generator) -> Tensor:
     """1-D value noise: ``knots`` random values in [0, 1], linearly resampled to ``n`` points."""
-    values = torch.rand(1, 1, knots, generator=generator)
+    values = torch.rand(1, 1, knots, generator=generator, device="cpu")
     return F.interpolate(values, size=n, mode="linear", align_corners=True)[0, 0]
 
 
@@ -27,10 +27,10 @@ def bristle_texture(height: int = 48, width: int = 192, seed: int = 0) -> Tensor
     Zero means no paint.
     """
     g = torch.Generator().manual_seed(seed)
-    v = torch.linspace(-1, 1, height)[:, None]
-    u = torch.linspace(0, 1, width)[None, :]
+    v = torch.linspace(-1, 1, height, device="cpu")[:, None]  # built on the CPU, moved where it is used
+    u = torch.linspace(0, 1, width, device="cpu")[None, :]
     streaks = 0.55 + 0.45 * _smooth_noise(height, height // 2, g)[:, None]
-    fine = 0.9 + 0.1 * torch.rand(height, 1, generator=g)
+    fine = 0.9 + 0.1 * torch.rand(height, 1, generator=g, device="cpu")
     envelope = torch.sqrt((1 - v**4).clamp(min=0))  # rounded sides: outer bristles are shorter
     start = 0.02 + 0.10 * _smooth_noise(height, height // 3, g)[:, None] + 0.05 * (1 - envelope)
     end = (0.86 + 0.13 * _smooth_noise(height, height // 3, g)[:, None]) * (0.8 + 0.2 * envelope)

@@ -41,12 +41,12 @@ def distribute(strokes: int, blocks: list[int]) -> list[Tensor]:
     levels first (detail is where extra strokes show), spread evenly across each level.
     """
     base, extra = divmod(strokes, sum(blocks))
-    counts = [torch.full((n,), base, dtype=torch.long) for n in blocks]
+    counts = [torch.full((n,), base, dtype=torch.long, device="cpu") for n in blocks]  # bookkeeping: the CPU
     for level in reversed(range(len(blocks))):
         n = blocks[level]
         take = min(extra, n)
         if take:
-            counts[level][torch.arange(take) * n // take] += 1
+            counts[level][torch.arange(take, device="cpu") * n // take] += 1
         extra -= take
     return counts
 
@@ -58,8 +58,8 @@ def share(strokes: int, scores: Tensor, cap: int) -> Tensor:
     Highest averages (D'Hondt): each stroke in turn goes to the block of the largest
     score / (strokes it has + 1) among those below the cap; ties go to the earlier block.
     """
-    scores = scores.double().clamp_min(0) + 1e-12  # blocks with nothing to fix still take what is left
-    prices = scores[:, None] / torch.arange(1, cap + 1, dtype=torch.float64)  # (B, cap), falling along a row
+    scores = scores.detach().double().cpu().clamp_min(0) + 1e-12  # bookkeeping on the CPU; blocks with nothing to fix still take what is left
+    prices = scores[:, None] / torch.arange(1, cap + 1, dtype=torch.float64, device=scores.device)  # (B, cap), falling along a row
     order = torch.argsort(prices.flatten(), descending=True, stable=True)[:strokes]
     return torch.bincount(order // cap, minlength=len(scores))
 
@@ -90,8 +90,8 @@ class Level:
 
         def starts(n: int, extent: int) -> Tensor:
             if n == 1:
-                return torch.tensor([(extent - side) // 2])  # centred; padded if the block is larger
-            return torch.linspace(0, extent - side, n).round().long()
+                return torch.tensor([(extent - side) // 2], device="cpu")  # centred; padded if the block is larger
+            return torch.linspace(0, extent - side, n, device="cpu").round().long()
 
         ys, xs = torch.meshgrid(starts(rows, height), starts(cols, width), indexing="ij")
         return cls(side, torch.stack([ys.flatten(), xs.flatten()], 1), counts, height, width)

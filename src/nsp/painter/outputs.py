@@ -42,7 +42,7 @@ def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:
     from skimage.metrics import structural_similarity  # torchmetrics' takes seconds to import
 
     shape = long_side(*photo.shape[-2:], SCORE_SIZE)  # the painting's own rounding may differ by a pixel
-    a, b = (resize(image, shape).double() for image in (painting, photo))
+    a, b = (resize(image.cpu(), shape).double() for image in (painting, photo))
     ssim = structural_similarity(a.permute(1, 2, 0).numpy(), b.permute(1, 2, 0).numpy(), data_range=1.0,
                                  channel_axis=2, gaussian_weights=True, sigma=1.5, use_sample_covariance=False)
     return {"psnr": round(float(psnr(a, b)), 3), "ssim": round(float(ssim), 4)}

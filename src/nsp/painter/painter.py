@@ -125,7 +125,7 @@ class Painter:
         """
         _, height, width = target.shape
         self._done, self._active, self.step = [], None, 0
-        color = torch.tensor(parse_color(self.background), dtype=target.dtype)
+        color = torch.tensor(parse_color(self.background), dtype=target.dtype, device=target.device)
         canvas = color[:, None, None].expand(3, height, width)
         for index, level in enumerate(self.levels(strokes, height, width)):
             x = self._paint_level(level, target, canvas)
@@ -154,8 +154,8 @@ class Painter:
         if self.split == "error":
             level = self._by_error(level, under, goal, weights)
         depth = int(level.counts.max())
-        exists = torch.arange(depth)[None] < level.counts[:, None]  # (B, K)
-        x = torch.zeros(level.blocks, depth, self.brush.d, requires_grad=True)
+        exists = torch.arange(depth, device="cpu")[None] < level.counts[:, None]  # (B, K), as level.counts: the CPU
+        x = torch.zeros(level.blocks, depth, self.brush.d, device=target.device, requires_grad=True)
         optimizer = self.optimizer([x])
         palette = Palette(goal, max(5, round(self.init_size[1] * size))) if self.palette else None  # a long stroke wide
         painted = torch.zeros_like(exists)
@@ -200,7 +200,7 @@ class Painter:
         fg, alpha = fg.view(blocks, count, 3, size, size), alpha.view(blocks, count, 1, size, size)
         out = alpha * fg + (1 - alpha) * canvas[:, None]
         error = ((out - goal[:, None]).abs() * weights[:, None]).sum((2, 3, 4))  # (B, C)
-        return tried[torch.arange(blocks), error.argmin(1)]
+        return tried[torch.arange(blocks, device=tried.device), error.argmin(1)]
 
     def _by_error(self, level: Level, under: Tensor, goal: Tensor, weights: Tensor) -> Level:
         """The level with its strokes shared by the mean |canvas − target| left in each block

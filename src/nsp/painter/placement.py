@@ -35,7 +35,7 @@ def largest_errors(canvas: Tensor, target: Tensor, weights: Tensor, count: int =
         index = error.flatten(1).argmax(1)
         picks.append(index)
         row, col = index // width, index % width
-        ys, xs = torch.arange(error.shape[-2]), torch.arange(width)
+        ys, xs = torch.arange(error.shape[-2], device=error.device), torch.arange(width, device=error.device)
         near = ((ys[None, :, None] - row[:, None, None]).abs() <= side) & ((xs[None, None] - col[:, None, None]).abs() <= side)
         error = error.masked_fill(near[:, None], -1.0)
     index = torch.stack(picks, 1)
@@ -77,13 +77,14 @@ def place_strokes(
     rows, cols = largest_errors(canvas, target, weights, peaks)
     structure = structure_tensor(target, window(w))
     seeds = smooth(target, 3)
-    pick = torch.arange(batch)
+    pick = torch.arange(batch, device=target.device)
     lo, hi = size[0] * (w - 1) / 2, size[1] * (w - 1) / 2  # half-lengths in block pixels
     out = []
     for row, col in zip(rows.T, cols.T):
         along, coherence = orientation(structure[pick, :, row, col])
         flat = coherence < 0.05
-        direction = torch.where(flat, 2 * math.pi * torch.rand(batch, generator=generator, dtype=target.dtype), along)
+        turn = torch.rand(batch, generator=generator, dtype=target.dtype, device=generator.device).to(target.device)
+        direction = torch.where(flat, 2 * math.pi * turn, along)
         colors, dist = reach(target, canvas, row.to(target.dtype), col.to(target.dtype), direction,
                              seeds[pick, :, row, col], hi)
         head, tail = colors[:, 1].mean(1), colors[:, 0].mean(1)  # (B, 3): the −direction and +direction halves
@@ -105,10 +106,10 @@ def _stroke(brush: Brush, cx: Tensor, cy: Tensor, direction: Tensor, length: Ten
     """(B, d) parameters of strokes centred at (cx, cy) (fractions of the block), pointing at
     ``direction`` (radians), ``length`` and ``thickness`` fractions of the block width; ``colors``:
     one (B, 3) per colour of the brush, in parameter order."""
-    x = torch.full((len(cx), brush.d), 0.5)
+    x = torch.full((len(cx), brush.d), 0.5, device=cx.device)
     xs = [i for i, k in enumerate(brush.kinds) if k == "x"]
     ys = [i for i, k in enumerate(brush.kinds) if k == "y"]
-    spread = torch.linspace(-0.5, 0.5, len(xs)) if len(xs) > 1 else torch.zeros(1)  # points along the stroke
+    spread = torch.linspace(-0.5, 0.5, len(xs), device=cx.device) if len(xs) > 1 else cx.new_zeros(1)  # points along the stroke
     x[:, xs] = cx[:, None] + spread * (length * torch.cos(direction))[:, None]
     x[:, ys] = cy[:, None] + spread * (length * torch.sin(direction))[:, None]
     sizes = [i for i, k in enumerate(brush.kinds) if k == "size"]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import torch
 from torch import Tensor, nn
 
 from nsp.brushes import Brush
@@ -50,13 +51,13 @@ class NeuralRenderer:
         return self.network(x)
 
 
-def load_neural(path: str | Path, brush: Brush) -> NeuralRenderer:
-    """The renderer in an ``nsp.train`` checkpoint; ``ValueError`` naming the problem if the file is
-    not one or was trained for another brush."""
-    network, trained_for, size = load_renderer(path, map_location="cpu")
+def load_neural(path: str | Path, brush: Brush, device: torch.device | str = "cpu") -> NeuralRenderer:
+    """The renderer in an ``nsp.train`` checkpoint, on ``device``; ``ValueError`` naming the problem
+    if the file is not one or was trained for another brush."""
+    network, trained_for, size = load_renderer(path)
     if trained_for != brush.name:
         raise BadInput(
             f"renderer.checkpoint={path} renders {trained_for} strokes, not brush={brush.name}; "
             f"use brush={trained_for} or a checkpoint from `python -m nsp.train brush={brush.name}`"
         )
-    return NeuralRenderer(network, size)
+    return NeuralRenderer(network.to(device), size)

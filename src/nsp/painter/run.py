@@ -19,6 +19,7 @@ from torch.utils.tensorboard import SummaryWriter
 from nsp.brushes import get_brush
 from nsp.cli import shielded
 from nsp.engine import parse_color
+from nsp.engine.device import resolve_device
 from nsp.engine.memory import check_canvas
 from nsp.errors import BadInput
 from nsp.io.export import frame_ends, write_json, write_png
@@ -70,6 +71,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
         raise BadInput(f"schedule.init_size={list(s.init_size)}: expected [low, high] with 0 < low ≤ high ≤ 1")
     if s.grids is not None and (not s.grids or min(s.grids) < 1):
         raise BadInput(f"schedule.grids={list(s.grids)}: expected blocks per side of each level, e.g. [1, 2, 3]")
+    device = resolve_device(cfg.device)
     try:
         parse_color(cfg.background)
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
@@ -82,13 +84,13 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
         elif cfg.renderer.checkpoint is None:
             raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
         else:
-            renderer = load_neural(cfg.renderer.checkpoint, brush)
+            renderer = load_neural(cfg.renderer.checkpoint, brush, device)
         if cfg.style.steps < 0 or cfg.style.size <= 0:
             raise BadInput(f"style.steps={cfg.style.steps}, style.size={cfg.style.size}: expected steps ≥ 0, size > 0")
         style = None
         if cfg.style.image is not None:
             image = resize(load_image(cfg.style.image, max_side=cfg.style.size, key="style.image"), cfg.style.size)
-            style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
+            style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed).to(device)
     except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None
     loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.background))
@@ -97,7 +99,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
                       steps_per_stroke=s.steps_per_stroke, init_size=s.init_size, candidates=s.candidates,
                       palette=s.palette,
                       background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
-    return painter, photo, style
+    return painter, photo.to(device), style
 
 
 def settings(cfg: DictConfig) -> dict[str, str | int | float]:

@@ -100,6 +100,7 @@ class PaintConfig:
     # torch CPU threads. Each step's tensors are small: more threads gain little, and on a busy
     # machine they wait on each other (3-5× slower measured with two on two shared cores).
     threads: Optional[int] = 1
+    device: str = "cpu"  # cpu, cuda, cuda:N or auto (the GPU torch sees, else the CPU)
     progress: bool = True
     renderer: RendererConfig = field(default_factory=RendererConfig)
     loss: LossConfig = field(default_factory=LossConfig)

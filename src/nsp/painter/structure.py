@@ -24,7 +24,7 @@ def structure_tensor(image: Tensor, window: int) -> Tensor:
     3×3 pre-smoothing, so single-pixel noise does not set the direction."""
     gray = smooth(image.mean(1, keepdim=True), 3)
     padded = F.pad(gray, (1, 1, 1, 1), mode="replicate")
-    sobel = torch.tensor([[-1.0, 0.0, 1.0], [-2.0, 0.0, 2.0], [-1.0, 0.0, 1.0]], dtype=image.dtype) / 8
+    sobel = torch.tensor([[-1.0, 0.0, 1.0], [-2.0, 0.0, 2.0], [-1.0, 0.0, 1.0]], dtype=image.dtype, device=image.device) / 8
     gx = F.conv2d(padded, sobel[None, None])
     gy = F.conv2d(padded, sobel.T[None, None])
     return smooth(smooth(torch.cat([gx * gx, gy * gy, gx * gy], 1), window), window)
@@ -60,8 +60,8 @@ def reach(target: Tensor, canvas: Tensor, row: Tensor, col: Tensor, angle: Tenso
     in the order along+, along−, across+, across−.
     """
     batch, _, h, w = target.shape
-    steps = torch.linspace(0, limit, samples + 1, dtype=target.dtype)  # (S+1,)
-    turns = angle[:, None] + torch.tensor([0.0, math.pi, math.pi / 2, -math.pi / 2], dtype=target.dtype)  # (B, 4)
+    steps = torch.linspace(0, limit, samples + 1, dtype=target.dtype, device=target.device)  # (S+1,)
+    turns = angle[:, None] + torch.tensor([0.0, math.pi, math.pi / 2, -math.pi / 2], dtype=target.dtype, device=target.device)  # (B, 4)
     px = col[:, None, None] + torch.cos(turns)[..., None] * steps  # (B, 4, S+1)
     py = row[:, None, None] + torch.sin(turns)[..., None] * steps
     grid = torch.stack([2 * px / max(w - 1, 1) - 1, 2 * py / max(h - 1, 1) - 1], -1)  # (B, 4, S+1, 2)
