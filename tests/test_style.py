@@ -186,22 +186,42 @@ def test_gaussian_transport_carries_one_covariance_onto_the_other():
     torch.testing.assert_close(matrix @ source @ matrix, target)
 
 
-def test_recoloring_moves_chroma_to_the_style_and_lightness_by_the_weight(astronaut):
+def test_recoloring_moves_chroma_to_the_style_and_lightness_by_the_step(astronaut):
     style = texture(data.brick(), tint=(0.9, 0.6, 0.3))[0]
     lab_p, lab_s = (rgb_to_lab(x.flatten(1), dim=0) for x in (astronaut, style))
-    for weight in (0.0, 0.5, 3.0):
-        recoloring = Recoloring.fit(astronaut, style, weight)
-        t = weight / (1 + weight)
+    for step in (0.0, 0.5, 1.0):
+        recoloring = Recoloring.fit(astronaut, style, step)
+        assert recoloring.step == step
         assert recoloring.matrix[0, 1:].abs().max() == 0 and recoloring.matrix[1:, 0].abs().max() == 0  # L alone
         lightness = recoloring.mean_out[0] - recoloring.mean_in[0]
-        assert lightness.item() == pytest.approx(t * (lab_s[0].mean() - lab_p[0].mean()).item(), abs=1e-5)
+        assert lightness.item() == pytest.approx(step * (lab_s[0].mean() - lab_p[0].mean()).item(), abs=1e-5)
         torch.testing.assert_close(recoloring.mean_out[1:], lab_s[1:].mean(1), atol=1e-5, rtol=0)
         assert torch.linalg.eigvalsh(recoloring.matrix[1:, 1:]).max() <= STRETCH + 1e-6
-    kept = Recoloring.fit(astronaut, style, 0.0)(astronaut, dim=0)  # weight 0: the lightness stays,
+        assert 0 < recoloring.matrix[0, 0] <= STRETCH  # increasing in L: tones keep their order
+    whole = Recoloring.fit(astronaut, style, 1.0)  # step 1: the style's spread of lightness
+    assert whole.matrix[0, 0].item() == pytest.approx((lab_s[0].std() / lab_p[0].std()).item(), rel=1e-3)
+    kept = Recoloring.fit(astronaut, style, 0.0)(astronaut, dim=0)  # step 0: the lightness stays,
     change = (rgb_to_lab(kept, dim=0)[0] - lab_p[0].reshape(S, S)).abs()
     assert change.median() < 1e-5 and change.max() < 0.05  # but where sRGB lacks the new chroma, clamping moves it
-    with pytest.raises(ValueError, match="style.weight"):
-        Recoloring.fit(astronaut, style, -1.0)
+    for step in (-0.1, 1.5):
+        with pytest.raises(ValueError, match="lightness step"):
+            Recoloring.fit(astronaut, style, step)
+
+
+def test_recoloring_toward_its_own_colours_changes_nothing(astronaut):
+    recoloring = Recoloring.fit(astronaut, astronaut, 1.0)
+    torch.testing.assert_close(recoloring(astronaut, dim=0), astronaut, atol=1e-2, rtol=0)  # up to EPS
+
+
+def test_recoloring_keeps_alike_colours_alike(astronaut):
+    # a drab painting toward a vivid style, all the way: the map stretches L*a*b* differences at most
+    # STRETCH×, so colours alike before stay alike after
+    drab = 0.5 + 0.1 * (astronaut - 0.5)
+    vivid = (texture(data.brick(), tint=(1.0, 0.2, 0.1)) + texture(data.grass(), tint=(0.0, 0.8, 0.0)))[0]
+    recoloring = Recoloring.fit(drab, vivid.clamp(0, 1), 1.0)
+    assert torch.linalg.matrix_norm(recoloring.matrix, ord=2) <= STRETCH + 1e-6
+    assert coherence(drab, recoloring(drab, dim=0)) <= 0.05
+    assert color_distance(recoloring(drab, dim=0), vivid) < 0.5 * color_distance(drab, vivid)
 
 
 @pytest.mark.parametrize("name", ["tape", "watercolor"])

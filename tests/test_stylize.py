@@ -22,8 +22,8 @@ from nsp.painter.losses import PaintLoss
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer
 from nsp.painter.schema import LossConfig
-from nsp.painter.stylize import stylize
-from nsp.style import StyleLoss
+from nsp.painter.stylize import STEPS, STRUCTURE, recolor, stylize
+from nsp.style import Recoloring, StyleLoss
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
 
 SIZE = 48
@@ -99,6 +99,26 @@ def test_color_mode_keeps_the_luminance_structure(scene, color_mode):
     assert luminance_ssim(styled, target) >= 0.9 * luminance_ssim(plain, target)
 
 
+def test_the_lightness_moves_as_far_as_the_luminance_structure_allows(scene):
+    brush, strokes, target, style = scene
+    plain = luminance_ssim(draw(brush, strokes), target)
+
+    def structure(recoloring):
+        return luminance_ssim(draw(brush, recoloring.strokes(brush, strokes)), target)
+
+    assert recolor(brush, strokes, target, style[0], 0.0).step == 0  # β 0 keeps the lightness
+    steps = []
+    for weight in (0.25, 0.5, 1.0):
+        recoloring = recolor(brush, strokes, target, style[0], weight)
+        floor = (1 - STRUCTURE * weight) * plain
+        assert structure(recoloring) >= floor
+        if recoloring.step < 1:  # one step further would lose more structure than β allows
+            painting = draw(brush, strokes)
+            assert structure(Recoloring.fit(painting, style[0], recoloring.step + 1 / STEPS)) < floor
+        steps.append(recoloring.step)
+    assert steps == sorted(steps) and steps[-1] > 0
+
+
 def test_full_mode_moves_the_texture_toward_the_style_on_a_held_out_network(scene, color_mode):
     brush, _, target, style = scene
     plain, recoloured = color_mode
@@ -132,6 +152,20 @@ def test_the_style_study_runs_as_a_painting_experiment(tmp_path):
     assert [(p["style"], p["mode"]) for p in pairs] == [(s, m) for s in ("gravel", "coffee") for m in modes]
     assert metrics["pairs_meeting_targets"].endswith("/2") and (tmp_path / "grid.png").is_file()
     assert (tmp_path / "table.md").read_text().count("\n") == 2 + len(pairs)
+
+
+def test_the_held_out_study_shares_no_image_with_the_development_set_or_the_tests(tmp_path):
+    with initialize_config_dir(str(CONF / "paint"), version_base="1.3"):
+        study = compose("paint", overrides=["experiment=style_heldout"])
+        cfg = compose("paint", overrides=["experiment=style_heldout", f"output_dir={tmp_path}", "task.photos=[coins]",
+                                          "task.styles=[coins,moon]", "strokes=4", "work_size=32", "style.size=32"])
+    development = {"astronaut", "chelsea", "coffee", "rocket", "china", "flower", "camera", "gravel", "brick", "grass"}
+    assert len(study.task.photos) == 10 and list(study.task.styles) == list(study.task.photos)
+    assert not development & set(study.task.photos) and list(study.task.modes) == ["color"]
+    metrics = instantiate(cfg.task)(cfg)  # an image of skimage.data, not a built-in photo; never toward itself
+    pairs = json.loads((tmp_path / "pairs.json").read_text())["pairs"]
+    assert [(p["photo"], p["style"], p["mode"]) for p in pairs] == [("coins", "moon", m) for m in ("plain", "color")]
+    assert metrics["pairs_meeting_targets"].endswith("/1") and "texture_distance_full" not in metrics
 
 
 def paint_cli(tmp_path, *args, env=None):

@@ -1,12 +1,14 @@
 """The style-transfer study (paper §3.5) as a painting experiment: each photo is painted once, then
-stylized toward each style image in colour mode and in full mode, and every result is measured
-(:mod:`nsp.style.measures`) against its plain painting, its photo and its style.
+stylized toward each style image in colour mode and in full mode (or in the modes asked), and
+every result is measured (:mod:`nsp.style.measures`) against its plain painting, its photo and its
+style.
 
-``grid(cfg, photos, styles) -> metrics`` runs on ``nsp.paint``'s config: the painting's settings
+``grid(cfg, photos, styles, modes) -> metrics`` runs on ``nsp.paint``'s config: the painting's settings
 (``brush``, ``strokes``, ``work_size``, ``renderer``, ``loss``, ``schedule``, ``optimizer``, ``seed``,
 ``background``) and the style's (``style.size``: the canvas of the style steps and of every
 measure; ``weight``, ``steps``, ``backbone``, ``weights``), ``output_dir``;
-``conf/paint/experiment/style_grid.yaml`` chooses the images.
+``conf/paint/experiment/style_grid.yaml`` chooses the images, ``style_heldout.yaml`` the held-out
+pairs of colour mode (docs/style.md).
 """
 from __future__ import annotations
 
@@ -28,23 +30,42 @@ from nsp.painter.stylize import MODES, stylize
 from nsp.style import StyleLoss
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
 
-TEXTURES = ("brick", "grass", "gravel")  # scikit-image's grey textures
 TARGETS = {"color_distance_drop": 0.5, "coherence": 0.05, "ssim_ratio": 0.9}  # colour mode: ≥, ≤, ≥
 COLUMNS = ("color_distance", "color_distance_drop", "coherence", "luminance_ssim", "ssim_ratio", "style_loss",
            "texture_distance")
 
 
 def style_image(name: str, size: int) -> Tensor:
-    """A built-in style image, long side ``size``: a texture of :data:`TEXTURES` (grey) or a photo
-    of ``nsp.painter.images.BUILTIN``, as RGB (3, h, w) in [0, 1]."""
-    if name in TEXTURES:
-        import skimage.data
-
-        gray = torch.from_numpy(np.asarray(getattr(skimage.data, name)(), dtype=np.float32) / 255)
-        return resize(gray.expand(3, -1, -1), size)
+    """A built-in image, long side ``size``, as RGB (3, h, w) in [0, 1]: a photo of
+    ``nsp.painter.images.BUILTIN`` or any image of ``skimage.data`` (grey ones, such as the
+    textures brick, grass and gravel, as three equal channels)."""
     if name in BUILTIN:
         return resize(load_image(name, max_side=size), size)
-    raise ValueError(f"style {name}: expected one of {', '.join(TEXTURES + tuple(BUILTIN))}")
+    return resize(skimage_image(name), size)
+
+
+def skimage_image(name: str) -> Tensor:
+    """The image ``skimage.data.<name>()`` (the first of a stereo pair) as RGB (3, H, W) in [0, 1]."""
+    import skimage.data
+
+    loader = getattr(skimage.data, name, None)
+    if name.startswith("_") or not callable(loader):
+        raise ValueError(f"image {name}: expected one of {', '.join(BUILTIN)} or an image of skimage.data")
+    array = loader()
+    array = np.asarray(array[0] if isinstance(array, tuple) else array)
+    image = torch.from_numpy(array.astype(np.float32) / (255 if array.dtype == np.uint8 else 1))
+    return image.expand(3, -1, -1).contiguous() if image.ndim == 2 else image[..., :3].permute(2, 0, 1).contiguous()
+
+
+def photo_spec(name: str, folder: Path) -> str:
+    """What ``image=`` paints ``name`` as: a built-in photo's name, or a PNG of the ``skimage.data``
+    image written into ``folder``."""
+    if name in BUILTIN:
+        return name
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.png"
+    write_png(path, skimage_image(name))
+    return str(path)
 
 
 def measure(image: Tensor, plain: Tensor, photo: Tensor, style: Tensor, loss: StyleLoss) -> dict[str, float]:
@@ -58,16 +79,19 @@ def measure(image: Tensor, plain: Tensor, photo: Tensor, style: Tensor, loss: St
 
 
 def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flower"),
-         styles: tuple[str, ...] = ("gravel", "brick", "rocket")) -> dict:
-    """Paint every photo, stylize it toward every style in both modes, measure all.
+         styles: tuple[str, ...] = ("gravel", "brick", "rocket"), modes: tuple[str, ...] = MODES) -> dict:
+    """Paint every photo, stylize it toward every other image of ``styles`` in each of ``modes``,
+    measure all. Images are names of :func:`style_image`.
 
-    Writes ``pairs.json`` (per photo, style and mode — ``plain``, ``color``, ``full`` — the
-    measures, with ``color_distance_drop`` = 1 − distance / the plain painting's and ``ssim_ratio``
-    = luminance SSIM / the plain painting's), ``table.md``, ``grid.png`` (a row per pair: photo,
-    style, plain, colour, full) and ``metrics.json``: colour mode's worst case of each target
+    Writes ``pairs.json`` (per photo, style and mode — ``plain`` and ``modes`` — the measures,
+    with ``color_distance_drop`` = 1 − distance / the plain painting's and ``ssim_ratio`` =
+    luminance SSIM / the plain painting's), ``table.md``, ``grid.png`` (a row per pair: photo,
+    style, plain, then each of ``modes``) and ``metrics.json``: colour mode's worst case of each target
     measure, how many pairs meet all three targets, the mean texture distance of the plain paintings
-    and of each mode's, and ``seconds``.
+    and of each mode's, and ``seconds``. A photo is not stylized toward itself.
     """
+    if unknown := set(modes) - set(MODES):
+        raise ValueError(f"task.modes: {', '.join(sorted(unknown))} unknown; expected some of {', '.join(MODES)}")
     start = time.perf_counter()
     if cfg.threads:
         torch.set_num_threads(cfg.threads)  # as a painting does: the same numbers in a run and in a sweep
@@ -75,17 +99,18 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
     out.mkdir(parents=True, exist_ok=True)
     rows, tiles = [], []
     for photo_name in photos:
-        painter, photo, _ = prepare(OmegaConf.merge(cfg, {"image": photo_name, "style": {"image": None}}))
+        spec = photo_spec(photo_name, out / "photos")
+        painter, photo, _ = prepare(OmegaConf.merge(cfg, {"image": spec, "style": {"image": None}}))
         brush, loss = painter.brush, painter.loss
         strokes = painter.paint(resize(photo, cfg.work_size), cfg.strokes)
         photo = resize(photo, cfg.style.size)
         height, width = photo.shape[1:]
         plain = paint_canvas(brush, strokes, height, width, cfg.background)
-        for style_name in styles:
+        for style_name in (s for s in styles if s != photo_name):
             image = style_image(style_name, cfg.style.size)
             style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
             paintings = {"plain": plain}
-            for mode in MODES:
+            for mode in modes:
                 styled = stylize(brush, strokes, photo, loss, style, instantiate(cfg.optimizer),
                                  weight=cfg.style.weight, steps=cfg.style.steps, mode=mode,
                                  background=cfg.background, softness=cfg.renderer.softness)
@@ -96,11 +121,11 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
                 row["color_distance_drop"] = 1 - row["color_distance"] / base["color_distance"]
                 row["ssim_ratio"] = row["luminance_ssim"] / base["luminance_ssim"]
                 rows.append({"photo": photo_name, "style": style_name, "mode": mode} | row)
-            tiles += [tile(x, cfg.style.size) for x in (photo, image, paintings["plain"], paintings["color"],
-                                                         paintings["full"])]
+            tiles += [tile(x, cfg.style.size) for x in (photo, image, *paintings.values())]
     write_json(out / "pairs.json", {"pairs": rows})
     (out / "table.md").write_text(table(rows))
-    write_png(out / "grid.png", make_grid(torch.stack(tiles).clamp(0, 1), nrow=5, padding=2, pad_value=0.5))
+    grid_image = make_grid(torch.stack(tiles).clamp(0, 1), nrow=3 + len(modes), padding=2, pad_value=0.5)
+    write_png(out / "grid.png", grid_image)
     metrics = summary(rows) | {"seconds": round(time.perf_counter() - start, 2), "strokes": cfg.strokes}
     write_json(out / "metrics.json", metrics)
     return metrics
@@ -118,16 +143,21 @@ def tile(image: Tensor, size: int) -> Tensor:
 def summary(rows: list[dict]) -> dict:
     """Colour mode's worst case of each target measure (:data:`TARGETS`) and how many pairs meet all
     three; the mean texture distance of the plain paintings and of each mode's."""
+    texture = {}
+    for r in rows:
+        texture.setdefault(r["mode"], []).append(r["texture_distance"])
+    texture = {f"texture_distance_{mode}": round(sum(values) / len(values), 4) for mode, values in texture.items()}
     color = [r for r in rows if r["mode"] == "color"]
+    if not color:
+        return texture
     met = [r["color_distance_drop"] >= TARGETS["color_distance_drop"] and r["coherence"] <= TARGETS["coherence"]
            and r["ssim_ratio"] >= TARGETS["ssim_ratio"] for r in color]
-    texture = {mode: [r["texture_distance"] for r in rows if r["mode"] == mode] for mode in ("plain", *MODES)}
     return {
         "color_distance_drop_min": round(min(r["color_distance_drop"] for r in color), 4),
         "coherence_max": round(max(r["coherence"] for r in color), 4),
         "ssim_ratio_min": round(min(r["ssim_ratio"] for r in color), 4),
         "pairs_meeting_targets": f"{sum(met)}/{len(met)}",
-    } | {f"texture_distance_{mode}": round(sum(values) / len(values), 4) for mode, values in texture.items()}
+    } | texture
 
 
 def table(rows: list[dict]) -> str:

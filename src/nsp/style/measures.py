@@ -51,7 +51,7 @@ def luminance_ssim(painting: Tensor, photo: Tensor) -> float:
     if painting.shape != photo.shape:
         raise ValueError(f"luminance_ssim needs images of one size: got {tuple(painting.shape)} and "
                          f"{tuple(photo.shape)}")
-    a, b = (rgb_to_lab(x.detach().double(), dim=0)[0].numpy() for x in (painting, photo))
+    a, b = (rgb_to_lab(x.detach().cpu().double(), dim=0)[0].numpy() for x in (painting, photo))
     return float(structural_similarity(a, b, data_range=1.0, gaussian_weights=True, sigma=1.5,
                                        use_sample_covariance=False))
 

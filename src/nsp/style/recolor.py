@@ -8,10 +8,12 @@ optimal map is affine, so colours that were alike stay alike. Lightness and chro
   transport map between the painting's (p) and the style's (s) Gaussians. The photo's hues are not
   its content: they are what colour mode replaces. A's stretch is capped (:data:`STRETCH`): a
   drab painting carried onto a vivid style would otherwise pull its near-alike colours apart.
-- lightness L, part way: L carries the photo's content, so the new L' minimizes the content/style
-  balance (L' − L)² + β_sty·W₂²(L', the style's L) over all increasing maps. In 1-D that is the
-  transport map T interpolated, L' = L + t·(T(L) − L) with t = β/(1 + β); T is affine, so L' is an
-  increasing affine function of L: tones keep their order, edges stay edges.
+- lightness L, a ``step`` t ∈ [0, 1] of the way: L carries the photo's content, so it moves along
+  the transport path L' = L + t·(T(L) − L), T the transport map between the two lightness
+  Gaussians. T is affine and increasing, so L' is too: tones keep their order, edges stay edges,
+  and t = 1 gives the style's mean and spread of lightness (the spread's stretch capped as
+  chroma's). How far to go depends on how much
+  luminance structure a step costs, which only the painting shows: ``nsp.painter.stylize`` chooses t.
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ from nsp.brushes import Brush
 from nsp.style.color import lab_to_rgb, rgb_to_lab
 
 EPS = 1e-4  # added to the painting's covariance: (1 ΔE)², so a grey painting's chroma stays invertible
-STRETCH = 2.0  # the largest eigenvalue of the chroma map A: how much it may stretch colour differences
+STRETCH = 2.0  # the most the map may stretch colour differences: A's largest eigenvalue, T's slope
 
 
 class Recoloring:
@@ -31,29 +33,31 @@ class Recoloring:
     Args:
         mean_in, mean_out: (3,) L*a*b* / 100 means of the painting and of its recolouring.
         matrix: (3, 3), block-diagonal: lightness alone, then chroma.
+        step: how far the lightness moved toward the style's, in [0, 1].
     """
 
-    def __init__(self, mean_in: Tensor, mean_out: Tensor, matrix: Tensor):
-        self.mean_in, self.mean_out, self.matrix = mean_in, mean_out, matrix
+    def __init__(self, mean_in: Tensor, mean_out: Tensor, matrix: Tensor, step: float = 0.0):
+        self.mean_in, self.mean_out, self.matrix, self.step = mean_in, mean_out, matrix, step
 
     @classmethod
-    def fit(cls, painting: Tensor, style: Tensor, weight: float) -> Recoloring:
+    def fit(cls, painting: Tensor, style: Tensor, step: float = 0.0) -> Recoloring:
         """The recolouring of ``painting`` (3, H, W) toward ``style`` (3, h, w), both RGB in [0, 1];
-        ``weight`` is β_sty ≥ 0: 0 keeps the lightness, larger values move it toward the style's."""
-        if weight < 0:
-            raise ValueError(f"style.weight={weight}: expected β_sty ≥ 0")
-        p = rgb_to_lab(painting.detach().flatten(1).double(), dim=0)  # (3, N)
-        s = rgb_to_lab(style.detach().flatten(1).double(), dim=0)  # (3, M)
+        ``step`` ∈ [0, 1]: how far the lightness moves toward the style's (0: kept, 1: the style's
+        mean and spread)."""
+        if not 0 <= step <= 1:
+            raise ValueError(f"lightness step {step}: expected 0 ≤ step ≤ 1")
+        p = rgb_to_lab(painting.detach().flatten(1).cpu().double(), dim=0)  # (3, N); a 3×3 fit: on the CPU
+        s = rgb_to_lab(style.detach().flatten(1).cpu().double(), dim=0)  # (3, M)
         mean_p, mean_s = p.mean(1), s.mean(1)
-        t = weight / (1 + weight)
-        scale = s[0].std() / (p[0].var() + EPS).sqrt()
+        t = float(step)
+        scale = (s[0].std() / (p[0].var() + EPS).sqrt()).clamp(max=STRETCH)
         matrix = torch.zeros(3, 3, dtype=torch.float64)
         matrix[0, 0] = 1 - t + t * scale
         chroma = gaussian_transport(torch.cov(p[1:]) + EPS * torch.eye(2, dtype=p.dtype), torch.cov(s[1:]))
         values, vectors = torch.linalg.eigh(chroma)
         matrix[1:, 1:] = vectors @ torch.diag(values.clamp(max=STRETCH)) @ vectors.T
         mean_out = torch.cat([mean_p[:1] + t * (mean_s[:1] - mean_p[:1]), mean_s[1:]])
-        return cls(mean_p.float(), mean_out.float(), matrix.float())
+        return cls(mean_p.float(), mean_out.float(), matrix.float(), t)
 
     def __call__(self, rgb: Tensor, dim: int = -1) -> Tensor:
         """Recoloured ``rgb`` in [0, 1], channels along ``dim`` (any shape); out of gamut: clamped."""
