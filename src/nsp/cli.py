@@ -354,6 +354,18 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
         fail(_one_line(error))
 
 
+def finish() -> NoReturn:
+    """End a single run's process now that its work is written and told: torch's teardown at
+    interpreter exit takes 0.6 s more and does nothing a finished run needs. A sweep (``-m``)
+    exits normally, so its launcher's worker processes are shut down."""
+    if any(arg in ("-m", "--multirun") for arg in sys.argv[1:]):
+        sys.exit(0)
+    logging.shutdown()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
+
+
 def _one_line(error: BaseException) -> str:
     """Hydra's and OmegaConf's several-line messages as one: the sentences, not the key dumps."""
     parts = []

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
 
-from nsp.cli import INTERRUPTED, Usage, chosen, command, run_job
+from nsp.cli import INTERRUPTED, Usage, chosen, command, finish, run_job
 
 log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.log
 
@@ -94,3 +94,4 @@ def cli() -> None:
 
 if __name__ == "__main__":
     cli()
+    finish()

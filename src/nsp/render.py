@@ -12,7 +12,7 @@ from typing import Any, Optional
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, OmegaConf
 
-from nsp.cli import Usage, chosen, command, fail
+from nsp.cli import Usage, chosen, command, fail, finish
 from nsp.errors import BadInput
 
 TEXT = ("strokes", "out", "background")  # free text: paths, ``#rrggbb``
@@ -125,3 +125,4 @@ def cli() -> None:
 
 if __name__ == "__main__":
     cli()
+    finish()

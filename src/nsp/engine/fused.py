@@ -22,11 +22,11 @@ from nsp.brushes.base import Brush
 CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp"
 os.environ.setdefault("TORCHINDUCTOR_CACHE_DIR", str(CACHE / "inductor"))  # read when Inductor first compiles
 
-# Eager shading and compositing, nanoseconds per pixel of the strokes' bounding boxes (a stroke's
-# culled tiles are a fraction of its box), 2 threads of this project's 2-core CPU, moderate strokes
-# at 128–1024 px; the compiled path takes about a quarter of it on the Bézier brushes.
-EAGER_NS = {"watercolor": 190.0, "markerpen": 130.0, "tape": 12.0, "oilpaint": 25.0}
-COMPILED_SHARE = {"watercolor": 0.25, "markerpen": 0.3, "tape": 0.6, "oilpaint": 0.6}
+# Eager rendering, nanoseconds per pixel of the strokes' bounding boxes (a stroke's culled tiles are
+# a fraction of its box), and the share of it the compiled path takes: 2 threads of this project's
+# 2-core CPU, `paint_canvas` of 3000 moderate strokes (benchmarks/engine.py's) at 512 px, timed both ways.
+EAGER_NS = {"watercolor": 150.0, "markerpen": 95.0, "tape": 80.0, "oilpaint": 60.0}
+COMPILED_SHARE = {"watercolor": 0.25, "markerpen": 0.4, "tape": 0.45, "oilpaint": 0.7}
 WARM_SECONDS = 6.0  # loading cached kernels: dynamo re-traces the shading, Inductor's cache hits
 COLD_SECONDS = 90.0  # compiling them the first time
 
