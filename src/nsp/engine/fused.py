@@ -26,8 +26,9 @@ os.environ.setdefault("TORCHINDUCTOR_CACHE_DIR", str(CACHE / "inductor"))  # rea
 # a fraction of its box), and the share of it the compiled path takes: 2 threads of this project's
 # 2-core CPU, `paint_canvas` of 3000 moderate strokes (benchmarks/engine.py's) at 512 px, timed both ways.
 EAGER_NS = {"watercolor": 150.0, "markerpen": 95.0, "tape": 80.0, "oilpaint": 60.0}
-COMPILED_SHARE = {"watercolor": 0.25, "markerpen": 0.4, "tape": 0.45, "oilpaint": 0.7}
-WARM_SECONDS = 6.0  # loading cached kernels: dynamo re-traces the shading, Inductor's cache hits
+COMPILED_SHARE = {"watercolor": 0.25, "markerpen": 0.4, "tape": 0.45, "oilpaint": 1.0}  # oil: its texture lookup
+# breaks the graph, and each new batch size recompiles the rest: never worth it end to end
+WARM_SECONDS = 7.0  # loading cached kernels (dynamo re-traces the shading): 6–8.5 s, benchmarks/render.py T(1)
 COLD_SECONDS = 90.0  # compiling them the first time
 
 
