@@ -280,11 +280,16 @@ def _choices(path: Path) -> Iterator[tuple[str, str | None]]:
             yield from entry.items()
 
 
+def sweeping(argv: list[str]) -> bool:
+    """Whether the command line asks for a sweep (``-m``, ``--multirun``, anywhere in it)."""
+    return any(arg in ("-m", "--multirun") for arg in argv)
+
+
 def chosen(argv: list[str], name: str, key: str) -> str | None:
     """What ``key`` (a plain key or a config group) of ``python -m nsp.<name>`` will be, from the
     command line or else the command's YAML, told without composing (which imports torch): None
     where composing could say otherwise (a sweep, an experiment) or neither names it."""
-    if any(arg in ("-m", "--multirun") for arg in argv):
+    if sweeping(argv):
         return None
     overrides = _overrides(argv)
     if overrides is None or any(o.key_or_group == "experiment" for o in overrides):
@@ -332,7 +337,7 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
     if "-h" in argv or "--help" in argv:
         print(help_text(name, usage))
         return
-    sweep = [arg for arg in argv if arg in ("-m", "--multirun")]  # anywhere in the line, as users type it
+    sweep = [arg for arg in argv if sweeping([arg])]  # anywhere in the line, as users type it
     sys.argv[1:] = argv = quote_text(sweep + [arg for arg in argv if arg not in sweep], text)
     for arg in argv:
         if "=" in arg and not arg.startswith("-") and (complaint := _unreadable(arg)):
@@ -358,7 +363,7 @@ def finish() -> NoReturn:
     """End a single run's process now that its work is written and told: torch's teardown at
     interpreter exit takes 0.6 s more and does nothing a finished run needs. A sweep (``-m``)
     exits normally, so its launcher's worker processes are shut down."""
-    if any(arg in ("-m", "--multirun") for arg in sys.argv[1:]):
+    if sweeping(sys.argv[1:]):
         sys.exit(0)
     logging.shutdown()
     sys.stdout.flush()

@@ -43,8 +43,8 @@ def available_bytes() -> int:
 def stroke_cover(brush: Brush, strokes: Tensor, height: int, width: int) -> float:
     """How many canvases the bounding boxes of the largest chunk of strokes (N, d) that
     :func:`paint_canvas` composites at once cover, on a ``height``×``width`` canvas (0 for N = 0)."""
-    parts = chunks(brush, strokes, height, width)
-    return max((float(brush.box_area(part, height, width).sum()) for part in parts), default=0.0) / (height * width)
+    area = brush.box_area(strokes, height, width).split([len(part) for part in chunks(brush, strokes, height, width)])
+    return max((float(a.sum()) for a in area), default=0.0) / (height * width)
 
 
 def check_canvas(height: int, width: int, key: str, cover: float = TYPICAL_COVER, frames: int = 0) -> None:
