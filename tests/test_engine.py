@@ -152,26 +152,50 @@ def test_closest_point_on_a_bezier_matches_dense_sampling(generator):
     assert torch.all(dist(t) <= best + 1e-2)
 
 
-def test_compiled_path_is_chosen_only_where_it_pays(generator, monkeypatch):
+def test_compiled_path_is_chosen_only_where_it_pays(generator, monkeypatch, tmp_path):
     from nsp.engine import fused
+    from nsp.engine.kernels import shade_tiles
 
     brush = BRUSHES["watercolor"]
     few, many = moderate(brush, 10, generator), moderate(brush, 20000, generator)
-    monkeypatch.setattr(fused, "_compiled_keys", lambda: set())  # a machine that never compiled
+    monkeypatch.setattr(fused, "CACHE", tmp_path)  # a machine that never compiled
     assert not fused.pays(brush, few, 128, 128)
-    assert not fused.pays(brush, many, 128, 128)  # seconds of eager work: not worth a cold compile
-    assert fused.pays(brush, many, 4096, 4096)  # an hour eager: worth even a cold compile
-    warm = {fused._key(brush, 128, 128, None)}
-    monkeypatch.setattr(fused, "_compiled_keys", lambda: warm)
-    assert fused.pays(brush, many, 128, 128)  # the kernels are cached: loading them pays
-    assert not fused.pays(brush, many, 128, 128, softness=1.0)  # not these kernels
-    assert not fused.pays(brush, few, 128, 128)
+    assert not fused.pays(brush, many, 128, 128)  # seconds of eager work: not worth a first compile
+    assert fused.pays(brush, many, 4096, 4096)  # an hour eager: worth even a first compile
+    kernel = fused.package(shade_tiles, brush, dict(height=128, width=128, tile=8, softness=None), many.device)
+    kernel.parent.mkdir(parents=True)
+    kernel.touch()
+    assert fused.pays(brush, many, 128, 128)  # the kernel is on disk: loading it pays
+    assert not fused.pays(brush, many, 128, 128, softness=1.0)  # not this kernel
+    assert not fused.pays(brush, many, 128, 96)
     assert not fused.pays(brush, many.requires_grad_(), 4096, 4096)  # gradients stay eager
     assert not fused.pays(BRUSHES["tape"], few, 128, 128)
 
 
+def test_a_kernel_is_compiled_once_into_the_cache_and_falls_back_where_it_cannot_serve(generator, monkeypatch, tmp_path):
+    from nsp.engine import fused
+    from nsp.engine.kernels import shade_tiles, tile_offsets
+
+    brush, consts = BRUSHES["tape"], dict(height=16, width=24, tile=8, softness=None)
+    monkeypatch.setattr(fused, "CACHE", tmp_path)
+    x, t = brush.sample(5, generator), torch.arange(5) % 6
+    dx, dy = tile_offsets(8, x)
+    eager = shade_tiles(brush, x, t, dx, dy, **consts)
+    compiled = fused.fused(shade_tiles, brush, x, t, dx, dy, **consts)
+    assert list(tmp_path.rglob("*.pt2")) == [fused.package(shade_tiles, brush, consts, x.device)]
+    assert all(torch.allclose(a, b, atol=1e-5) for a, b in zip(compiled, eager))
+    stamp = fused.package(shade_tiles, brush, consts, x.device).stat().st_mtime_ns
+    more = brush.sample(300, generator)  # another batch size: the same kernel
+    again = fused.fused(shade_tiles, brush, more, torch.arange(300) % 6, dx, dy, **consts)
+    assert fused.package(shade_tiles, brush, consts, x.device).stat().st_mtime_ns == stamp
+    assert torch.allclose(again[1], shade_tiles(brush, more, torch.arange(300) % 6, dx, dy, **consts)[1], atol=1e-5)
+    grad = x.clone().requires_grad_()
+    fg, _ = fused.fused(shade_tiles, brush, grad, t, dx, dy, **consts)  # no backward in a kernel: eager
+    assert fg.requires_grad
+
+
 def test_paint_canvas_compiled_equals_eager(generator):
-    brush = BRUSHES["markerpen"]
+    brush = BRUSHES["oilpaint"]  # its texture is baked into the kernel, at this canvas's mipmap level
     x = moderate(brush, 40, generator)
     eager = paint_canvas(brush, x, 48, 40, compile=False)
     fused = paint_canvas(brush, x, 48, 40, compile=True)

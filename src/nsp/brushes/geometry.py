@@ -198,7 +198,7 @@ def _nearest(
         column = None if taper_ is None else taper_[:, None]
         reach1, reach2 = _reach(t1, p0_, a_, b_, px, py, column), _reach(t2, p0_, a_, b_, px, py, column)
         t, reach = torch.where(reach1 <= reach2, t1, t2), torch.minimum(reach1, reach2)
-        for k in range(samples if taper_ is not None else 0):  # elementwise, so torch.compile fuses it
+        for k in range(samples if taper_ is not None else 0):  # elementwise, so a compiled kernel fuses it
             at = k / (samples - 1)
             sampled = _reach(at, p0_, a_, b_, px, py, column)
             t, reach = torch.where(sampled < reach, at, t), torch.minimum(sampled, reach)

@@ -20,14 +20,12 @@ _OPAQUE = 0.4  # texture values above this are fully covered with paint
 
 def sample(texture: Tensor, u: Tensor, v: Tensor) -> Tensor:
     """Bilinear texture values (P, N) at (u, v) ∈ [0, 1]² (P, N) of a (1, 1, h, w) texture."""
-    if torch.compiler.is_compiling():  # ATen's grid_sample beats the compiled one: keep it out of the graph
-        return torch.compiler.disable(_grid_sample)(texture, u, v)
     return _grid_sample(texture, u, v)
 
 
 def _grid_sample(texture: Tensor, u: Tensor, v: Tensor) -> Tensor:
     grid = torch.stack([2 * u - 1, 2 * v - 1], -1)[:, None]  # (P, 1, N, 2)
-    return F.grid_sample(texture.expand(len(u), -1, -1, -1), grid, align_corners=True)[:, 0, 0]
+    return F.grid_sample(texture.expand(u.shape[0], -1, -1, -1), grid, align_corners=True)[:, 0, 0]
 
 
 @dataclass(frozen=True, eq=False)

@@ -30,7 +30,7 @@ def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
 CHUNK_PIXELS = 1 << 24  # bounding-box pixels of the strokes rendered at once; their tiles take ~16 B a pixel
 
 
-def chunks(brush: Brush, strokes: Tensor, height: int, width: int, most: int = 256) -> list[Tensor]:
+def chunks(brush: Brush, strokes: Tensor, height: int, width: int, most: int = 1024) -> list[Tensor]:
     """``strokes`` (N, d) cut into consecutive runs of at most ``most`` strokes whose bounding
     boxes on a ``height``×``width`` canvas hold at most :data:`CHUNK_PIXELS` pixels together (a
     larger stroke alone): what :class:`TiledCanvas` renders at once, so its memory is bounded by
@@ -58,7 +58,7 @@ class TiledCanvas:
         self.tile = tile
         self.tiles = to_tiles(canvas, tile)  # a copy: strokes are blended into it in place
 
-    def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = 256,
+    def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = 1024,
               compile: bool = False) -> None:
         """Composite ``strokes`` (N, d), in order, a :func:`chunks` at a time (memory stays
         bounded); ``compile``: shade them on the compiled path (:mod:`nsp.engine.fused`)."""
@@ -87,7 +87,7 @@ def paint_canvas(
     *,
     softness: float | None = None,
     canvas: Tensor | None = None,
-    chunk: int = 256,
+    chunk: int = 1024,
     tile: int = 8,
     compile: bool | None = None,
 ) -> Tensor:

@@ -1,86 +1,103 @@
-"""The engine's compiled path: stroke shading fused by TorchInductor, and when it pays.
+"""The engine's compiled path: its per-pair kernels compiled ahead of time by AOTInductor, kept on disk.
 
-Shading runs a few hundred elementwise ops a pixel (a Bézier brush solves a cubic and scans its
-swept discs); eager PyTorch makes one pass over memory per op, TorchInductor fuses them into one
-loop, 3–5× faster on a CPU. Compiling costs time: about a minute the first time a brush is used
-at a canvas size on a machine, then a few seconds a process to load the kernels from the on-disk
-cache (``$TORCHINDUCTOR_CACHE_DIR``, by default ``~/.cache/nsp/inductor``, kept across runs and
-reboots). :func:`pays` weighs that against the eager time a render is expected to take.
+Culling and shading run tens to hundreds of elementwise ops a pixel (a Bézier brush solves a cubic
+and scans its swept discs); eager PyTorch makes one pass over memory per op, a compiled kernel one
+loop, 1.5–8× faster on a CPU. A kernel of a brush at a canvas size is exported and compiled once
+on a machine (15–60 s) into a package under ``~/.cache/nsp/kernels``; later processes load it in
+milliseconds. :func:`pays` weighs that first compile against the eager time a render would take.
 """
 from __future__ import annotations
 
 import functools
-import json
+import hashlib
 import os
+import tempfile
 from pathlib import Path
 
 import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush
+from nsp.engine.kernels import near_tiles, shade_tiles
 
-CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp"
-os.environ.setdefault("TORCHINDUCTOR_CACHE_DIR", str(CACHE / "inductor"))  # read when Inductor first compiles
+CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" / "kernels"
 
 # Eager rendering, nanoseconds per pixel of the strokes' bounding boxes (a stroke's culled tiles are
 # a fraction of its box), and the share of it the compiled path takes: 2 threads of this project's
-# 2-core CPU, `paint_canvas` of 3000 moderate strokes (benchmarks/engine.py's) at 512 px, timed both ways.
+# 2-core CPU, `paint_canvas` of 6000 moderate strokes (benchmarks/engine.py's) at 128 px, both ways.
 EAGER_NS = {"watercolor": 150.0, "markerpen": 95.0, "tape": 80.0, "oilpaint": 60.0}
-COMPILED_SHARE = {"watercolor": 0.25, "markerpen": 0.4, "tape": 0.45, "oilpaint": 1.0}  # oil: its texture lookup
-# breaks the graph, and each new batch size recompiles the rest: never worth it end to end
-WARM_SECONDS = 7.0  # loading cached kernels (dynamo re-traces the shading): 6–8.5 s, benchmarks/render.py T(1)
-COLD_SECONDS = 90.0  # compiling them the first time
+COMPILED_SHARE = {"watercolor": 0.2, "markerpen": 0.35, "tape": 0.5, "oilpaint": 0.85}
+COMPILE_SECONDS = 120.0  # a brush's culling and shading kernels, compiled the first time (60–120 s)
+MOST_PAIRS = 1 << 24  # the largest batch of (stroke, tile) pairs a kernel takes
+HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-px tiles
 
 
-def _key(brush: Brush, height: int, width: int, softness: float | None) -> str:
-    return f"{torch.__version__} {brush.name} {brush.texture_path} {height}x{width} {softness}"
+def package(stage, brush: Brush, consts: dict, device: torch.device) -> Path:
+    """Where the compiled ``stage`` of ``brush`` lives: one file per torch version, stage, brush
+    variant (its parameters, its texture's bytes), constants (canvas, tiling, edge) and device."""
+    texture = hashlib.sha1(Path(brush.texture_path).read_bytes()).hexdigest()[:12] if brush.texture_path else "own"
+    fixed = "-".join(f"{key}{consts[key]}" for key in sorted(consts))
+    return CACHE / torch.__version__ / f"{stage.__name__}-{brush.name}{brush.d}-{texture}-{fixed}-{device.type}.pt2"
 
 
-@functools.cache
-def _compiled_keys() -> set[str]:
-    """The (brush, size, softness) kernels this machine has compiled, as ``compiled.json`` lists them."""
-    try:
-        return set(json.loads((CACHE / "compiled.json").read_text()))
-    except (OSError, ValueError):
-        return set()
-
-
-def _remember(key: str) -> None:
-    keys = _compiled_keys()
-    keys.add(key)
-    try:
-        CACHE.mkdir(parents=True, exist_ok=True)
-        (CACHE / "compiled.json").write_text(json.dumps(sorted(keys), indent=1))
-    except OSError:
-        pass  # a read-only home: later runs just expect a cold compile
-
-
-def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float | None = None) -> bool:
+def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float | None = None, tile: int = 8) -> bool:
     """Whether rendering ``strokes`` (N, d) on a ``height``×``width`` canvas is expected to finish
-    sooner compiled (its start-up included, warm or cold) than eager. Never while gradients flow,
-    nor off the CPU (the estimates are the CPU's)."""
+    sooner compiled (a first compile included) than eager. Never while gradients flow, nor off the
+    CPU (the estimates are the CPU's)."""
     if strokes.device.type != "cpu" or (strokes.requires_grad and torch.is_grad_enabled()):
         return False
     eager = float(brush.box_area(strokes, height, width).sum()) * EAGER_NS.get(brush.name, EAGER_NS["watercolor"]) * 1e-9
-    start = WARM_SECONDS if _key(brush, height, width, softness) in _compiled_keys() else COLD_SECONDS
-    return eager * (1 - COMPILED_SHARE.get(brush.name, 1.0)) > start
+    consts = dict(height=height, width=width, tile=tile, softness=softness)
+    cached = package(shade_tiles, brush, consts, strokes.device).exists()
+    return eager * (1 - COMPILED_SHARE.get(brush.name, 1.0)) > (0.0 if cached else COMPILE_SECONDS)
+
+
+class _Stage(torch.nn.Module):
+    """``stage(brush, *tensors, **consts)`` as a module ``torch.export`` traces."""
+
+    def __init__(self, stage, brush: Brush, consts: dict):
+        super().__init__()
+        self.stage, self.brush, self.consts = stage, brush, consts
+
+    def forward(self, *tensors: Tensor):
+        return self.stage(self.brush, *tensors, **self.consts)
+
+
+def compile_kernel(stage, brush: Brush, fixed: tuple[Tensor, ...], consts: dict, device: torch.device) -> Path:
+    """Export and compile ``stage`` into its :func:`package`, written atomically (a concurrent run
+    never reads half a file); returns its path. ``fixed``: its tensors after x and t, as given."""
+    from torch._inductor import aoti_compile_and_package  # imported only to compile: ~1.5 s
+
+    path = package(stage, brush, consts, device)
+    x = brush.sample(HINT_PAIRS, device=device)  # x and t stand for their shapes and dtypes only
+    t = torch.zeros(HINT_PAIRS, dtype=torch.long, device=device)
+    pairs = torch.export.Dim("pairs", min=2, max=MOST_PAIRS)
+    with torch.no_grad():
+        stage(brush, x, t, *fixed, **consts)  # eagerly first: state a brush builds lazily (a texture) is then a constant
+        program = torch.export.export(_Stage(stage, brush, consts), (x, t, *fixed),
+                                      dynamic_shapes=(({0: pairs}, {0: pairs}, *[None] * len(fixed)),))  # forward's *tensors
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+            aoti_compile_and_package(program, package_path=str(Path(tmp) / path.name))
+            os.replace(Path(tmp) / path.name, path)
+    return path
 
 
 @functools.cache
-def _shading(stage):
-    torch._dynamo.config.recompile_limit = max(torch._dynamo.config.recompile_limit, 64)  # a graph per brush and size
-    return torch.compile(stage, dynamic=False)
+def _kernel(path: Path, device: torch.device):
+    # The package's C++ loader, not `torch._inductor.aoti_load_package`, whose import (~1.5 s)
+    # takes longer than most renders.
+    return torch._C._aoti.AOTIModelPackageLoader(str(path), "model", False, 1, -1 if device.index is None else device.index)
 
 
-def fused(stage, brush: Brush, x: Tensor, t: Tensor, *args, height: int, width: int, softness: float | None):
-    """``stage(brush, x, t, *args)`` compiled, x (P, d) and t (P,) pairs: P is the one dynamic size,
-    so a graph serves every batch at a canvas size."""
-    if len(x) < 2:  # a dynamic size may not be 0 or 1
-        return stage(brush, x, t, *args)
-    torch._dynamo.maybe_mark_dynamic(x, 0)
-    torch._dynamo.maybe_mark_dynamic(t, 0)
-    out = _shading(stage)(brush, x, t, *args)
-    key = _key(brush, height, width, softness)
-    if key not in _compiled_keys():
-        _remember(key)
-    return out
+def fused(stage, brush: Brush, x: Tensor, t: Tensor, *fixed: Tensor, **consts):
+    """``stage(brush, x, t, *fixed, **consts)`` (a function of :mod:`nsp.engine.kernels`) by its
+    compiled kernel, compiled first if this machine has none: the same outputs, for x (P, d) and
+    t (P,) of any batch size P, ``fixed`` tensors of the shapes they had then, the same ``consts``."""
+    if not 2 <= len(x) <= MOST_PAIRS or x.dtype != torch.float32 or (x.requires_grad and torch.is_grad_enabled()):
+        return stage(brush, x, t, *fixed, **consts)  # outside the kernel's batch sizes and dtype; it has no backward
+    path = package(stage, brush, consts, x.device)
+    if not path.exists():
+        compile_kernel(stage, brush, fixed, consts, x.device)
+    out = _kernel(path, x.device).boxed_run([x.contiguous(), t.contiguous(), *fixed])
+    return out[0] if len(out) == 1 else tuple(out)

@@ -8,27 +8,17 @@ costs only the pixels near it and no Python loop runs over strokes.
 from __future__ import annotations
 
 import ctypes
-import functools
 import math
 from dataclasses import dataclass
 
 import torch
 from torch import Tensor
 
-from nsp.brushes.base import Brush, Pixels
+from nsp.brushes.base import Brush
 from nsp.engine.fused import fused
+from nsp.engine.kernels import near_tiles, shade_tiles, tile_offsets
 
 PASS_PIXELS = 1 << 18  # pixels shaded per pass of the inner loop
-
-
-def antialiased(sd: Tensor) -> Tensor:
-    """Box-filtered coverage of a pixel whose centre is ``sd`` pixels outside the edge."""
-    return (0.5 - sd).clamp(0, 1)
-
-
-def soft(sd: Tensor, softness: float = 1.0) -> Tensor:
-    """Sigmoid coverage: differentiable everywhere, a ``softness``-pixel-wide edge."""
-    return torch.sigmoid(-sd / softness)
 
 
 @dataclass
@@ -95,14 +85,6 @@ def in_box(box: Tensor, row: Tensor, col: Tensor, tile: int, margin: float) -> T
     return (col >= lo[..., 0]) & (col <= hi[..., 2]) & (row >= lo[..., 1]) & (row <= hi[..., 3])
 
 
-def near_tiles(brush: Brush, x: Tensor, t: Tensor, height: int, width: int, tile: int, margin: float) -> Tensor:
-    """(P,) whether stroke x[p] can reach tile t[p]: the brush's 1-Lipschitz distance bound at the tile's centre."""
-    cols = math.ceil(width / tile)
-    cx = (t % cols).to(x.dtype) * tile + (tile - 1) / 2
-    cy = torch.div(t, cols, rounding_mode="floor").to(x.dtype) * tile + (tile - 1) / 2
-    return brush.bound(x, Pixels(cx[:, None], cy[:, None], height, width))[:, 0] <= tile / math.sqrt(2) + margin
-
-
 def subtiles(
     b: Tensor, t: Tensor, box: Tensor, height: int, width: int, coarse: int, fine: int, margin: float
 ) -> tuple[Tensor, Tensor]:
@@ -131,12 +113,12 @@ def rasterize(
     """Evaluate strokes ``x`` (B, d) on the tiles of a ``height``×``width`` canvas they touch.
 
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
-    before ``brush.paint`` shades their pixels. ``compile`` shades them through
-    :func:`nsp.engine.fused.fused` (TorchInductor): several times faster, after loading or
-    compiling the kernels (:func:`nsp.engine.fused.pays` tells when that is worth it).
+    before ``brush.paint`` shades their pixels. ``compile`` shades them by the brush's compiled
+    kernel (:func:`nsp.engine.fused.fused`): several times faster, once this machine has compiled
+    it (:func:`nsp.engine.fused.pays` tells when that is worth it).
     """
-    coverage = antialiased if softness is None else functools.partial(soft, softness=softness)
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
+    run = fused if compile else (lambda stage, *args, **consts: stage(*args, **consts))
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
@@ -148,7 +130,7 @@ def rasterize(
         for size in reversed(sizes):
             if coarse is not None:
                 b, t = subtiles(b, t, box, height, width, coarse, size, margin)
-            keep = near_tiles(brush, x.detach()[b], t, height, width, size, margin)
+            keep = run(near_tiles, brush, x.detach()[b], t, height=height, width=width, tile=size, margin=margin)
             b, t, coarse = b[keep], t[keep], size
         order, layers = in_layers(t)  # b, in stroke order, stays so in each tile
         b, t = b[order], t[order]
@@ -156,23 +138,11 @@ def rasterize(
     # A pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be recycled
     # by the allocator instead of page-faulted in afresh by every op.
     step = max(1, PASS_PIXELS // tile**2)
-    offsets = torch.arange(tile, device=x.device, dtype=x.dtype)
-    dx, dy = offsets.repeat(tile), offsets.repeat_interleave(tile)  # pixel n of a tile: row n // tile, column n % tile
-    shade = functools.partial(fused, shade_tiles, height=height, width=width, softness=softness) if compile else shade_tiles
-    passes = [shade(brush, xs, ts, dx, dy, height, width, tile, coverage) for xs, ts in zip(x[b].split(step), t.split(step))]
+    dx, dy = tile_offsets(tile, x)
+    passes = [run(shade_tiles, brush, xs, ts, dx, dy, height=height, width=width, tile=tile, softness=softness)
+              for xs, ts in zip(x[b].split(step), t.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
-
-
-def shade_tiles(
-    brush: Brush, x: Tensor, t: Tensor, dx: Tensor, dy: Tensor, height: int, width: int, tile: int, coverage
-) -> tuple[Tensor, Tensor]:
-    """Foreground (P, 3, n) and alpha (P, n) of strokes x (P, d) on tiles t (P,), whose pixel k lies
-    (dx[k], dy[k]) from the tile's corner (n = tile² pixels)."""
-    cols = math.ceil(width / tile)
-    px = ((t % cols) * tile).to(x.dtype)[:, None] + dx
-    py = (torch.div(t, cols, rounding_mode="floor") * tile).to(x.dtype)[:, None] + dy
-    return brush.paint(x, Pixels(px, py, height, width), coverage)
 
 
 def write_tiles(segments: Tensor, stroke: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, rows: int, cols: int) -> None:

@@ -45,7 +45,7 @@ class DataConfig:
     test_seed: int = 0  # while choices (learning rates) are made on the validation strokes
     num_workers: int = 1  # processes rendering training batches alongside training
     render_on_device: bool = False  # render training batches on the training device (GPU) instead
-    compile: bool = False  # render through torch.compile'd engine stages: ~3x faster, after a one-off compile
+    compile: bool = False  # draw through the engine's compiled kernels (nsp.engine.fused): faster, after a one-off compile
 
 
 Interval = StrEnum("Interval", {"epoch": "epoch", "step": "step"})  # Hydra rejects any other at compose time
