@@ -1,15 +1,19 @@
 """The painter (paper §3.1, §3.6): the progressive schedule, where strokes start, and the search."""
 import math
+import subprocess
+import sys
 from functools import partial
 
 import pytest
 import torch
 
 from nsp.brushes import BRUSHES, get_brush
+from nsp.config import CONF
 from nsp.engine import paint_canvas, render
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
 from nsp.painter.images import resize
 from nsp.painter.losses import PaintLoss
+from nsp.painter.optimize import RMSprop
 from nsp.painter.painter import Callback, Painter
 from nsp.painter.palette import Palette
 from nsp.painter.placement import largest_errors, place_strokes
@@ -33,7 +37,7 @@ def painter(brush: str = "tape", renderer=None, **options) -> Painter:
         spec,
         renderer or AnalyticRenderer(spec, softness=0.5, block_size=32),
         PaintLoss(l1=1.0, ot=0.0, grid=48, eps=0.01, iters=5),
-        partial(torch.optim.RMSprop, lr=0.01),
+        partial(RMSprop, lr=0.01),
         generator=torch.Generator().manual_seed(0),
         **{"steps_per_stroke": 4, **options},
     )
@@ -250,6 +254,43 @@ def test_only_trainable_parameters_move():
     shape = [i for i in range(get_brush("tape").d) if i not in colours]
     assert torch.equal(placed[:, shape], tuned[:, shape])
     assert not torch.equal(placed[:, colours], tuned[:, colours])
+
+
+@pytest.mark.parametrize("corrected", [False, True])
+def test_the_painters_rmsprop_steps_as_torch_optim_rmsprop(corrected):
+    start = torch.rand(6, 5, generator=torch.Generator().manual_seed(0))
+    ours, theirs = start.clone().requires_grad_(), start.clone().requires_grad_()
+    mine = RMSprop([ours], lr=0.01, corrected=corrected)
+    torchs = torch.optim.RMSprop([theirs], lr=0.01)
+    # the correction as a schedule: lr·√(1 − α^t) at step t
+    schedule = torch.optim.lr_scheduler.LambdaLR(torchs, lambda t: (1 - 0.99 ** (t + 1)) ** 0.5 if corrected else 1)
+    for _ in range(20):
+        for x, optimizer in ((ours, mine), (theirs, torchs)):
+            optimizer.zero_grad()
+            ((x - 0.3) ** 4).sum().backward()
+            optimizer.step()
+        schedule.step()
+    assert torch.allclose(ours, theirs, atol=1e-6) and not torch.allclose(ours, start, atol=1e-2)
+
+
+def test_a_painting_with_the_default_optimizer_never_imports_torch_dynamo():  # 1.8 s (torch.optim's first use)
+    script = f"""
+import sys, torch
+from hydra.utils import instantiate
+from omegaconf import OmegaConf
+from nsp.brushes import get_brush
+from nsp.painter.losses import PaintLoss
+from nsp.painter.painter import Painter
+from nsp.painter.renderer import AnalyticRenderer
+brush = get_brush("tape")
+optimizer = instantiate(OmegaConf.load("{CONF / 'paint' / 'optimizer' / 'rmsprop.yaml'}"))
+painter = Painter(brush, AnalyticRenderer(brush, 0.5, 32), PaintLoss(l1=1.0, ot=0.0, grid=48, eps=0.01, iters=5),
+                  optimizer, generator=torch.Generator().manual_seed(0))
+painter.paint(torch.rand(3, 64, 64), 4)
+print(painter.step > 0, "torch._dynamo" in sys.modules)
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["True", "False"]
 
 
 def test_interrupted_painting_keeps_the_strokes_painted_so_far():

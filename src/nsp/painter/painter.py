@@ -18,12 +18,11 @@ from typing import Callable, Sequence
 
 import torch
 from torch import Tensor
-from torch.optim import Optimizer
 
 from nsp.brushes import Brush
 from nsp.engine import composite, paint_canvas, parse_color
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
-from nsp.painter.optimize import optimize_strokes
+from nsp.painter.optimize import Optimizer, optimize_strokes
 from nsp.painter.palette import Palette
 from nsp.painter.placement import place_strokes
 

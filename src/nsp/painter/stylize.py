@@ -21,12 +21,10 @@ from typing import Callable, Sequence
 
 import torch
 from torch import Tensor
-from torch.optim import Optimizer
-from torch.optim.lr_scheduler import LambdaLR
 
 from nsp.brushes import Brush
 from nsp.engine import paint_canvas
-from nsp.painter.optimize import optimize_strokes
+from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
 from nsp.style.measures import luminance_ssim
 
@@ -68,7 +66,8 @@ def stylize(
     target = recoloring(target, dim=0)[None]  # the photo in the style's colours
     x.requires_grad_(True)
     opt = optimizer([x])
-    warm_up = _bias_correction(opt)
+    if isinstance(opt, RMSprop):  # on a finished painting, uncorrected first steps would scatter every stroke
+        opt.corrected = True
 
     def objective() -> tuple[Tensor, dict[str, Tensor]]:
         canvas = paint_canvas(brush, x, height, width, background, softness=softness)[None]
@@ -78,7 +77,6 @@ def stylize(
         return canvas, losses
 
     for step, (_, losses) in enumerate(optimize_strokes(x, opt, steps, objective), start=1):
-        warm_up.step()
         for callback in callbacks:
             callback(step, losses)
     with torch.no_grad():
@@ -115,13 +113,3 @@ def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight
                 break
             chosen = recoloring
     return chosen
-
-
-def _bias_correction(opt: Optimizer) -> LambdaLR:
-    """Scales RMSprop's rate by √(1 − α^t) at step t (no change for other optimizers).
-
-    RMSprop's running mean square starts at zero, so its first steps are up to 1/√(1 − α) = 10×
-    the rate (α = 0.99): on a finished painting that first jolt scatters every stroke.
-    """
-    alpha = opt.param_groups[0].get("alpha")
-    return LambdaLR(opt, lambda t: (1 - alpha ** (t + 1)) ** 0.5 if alpha else 1.0)
