@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from operator import itemgetter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -115,10 +116,10 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
     keys = ", ".join(spec.params)
     if not isinstance(strokes, list) or not all(isinstance(s, dict) for s in strokes):
         raise StrokeFileError(f'strokes={path} is malformed: expected "strokes": a list of objects with {keys}')
-    rows = [[stroke.get(key) for key in spec.params] for stroke in strokes]
-    lacking = sum(not all(_is_number(v) for v in row) for row in rows)
-    if lacking:
-        raise StrokeFileError(f"strokes={path}: {lacking} of {len(rows)} strokes lack a number for one of {keys}")
+    rows = list(map(itemgetter(*spec.params), strokes)) if all(map(set(spec.params).issubset, strokes)) else None
+    if rows is None or not {type(v) for row in rows for v in row} <= {int, float}:  # bool, None, str: not numbers
+        lacking = sum(not all(_is_number(stroke.get(key)) for key in spec.params) for stroke in strokes)
+        raise StrokeFileError(f"strokes={path}: {lacking} of {len(strokes)} strokes lack a number for one of {keys}")
     try:
         values = torch.tensor(rows, dtype=torch.float32).reshape(-1, spec.d)
     except OverflowError:  # an integer past any float

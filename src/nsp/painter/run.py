@@ -169,11 +169,10 @@ def paint(cfg: DictConfig) -> dict:
         frames = len(frame_ends(len(strokes), cfg.animation_frames))
         log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
         files = time.perf_counter()
-        with ThreadPoolExecutor(2) as pool:  # final.png and the animation at once: a core each
-            png = pool.submit(write_strokes_and_png, out, strokes, *shared)
+        with ThreadPoolExecutor(2) as pool:  # final.png and its scores, and the animation, at once: a core each
+            scored = pool.submit(lambda: similarity(write_strokes_and_png(out, strokes, *shared), photo))
             pool.submit(write_vector_files, out, strokes, *shared, cfg.animation_size, cfg.animation_frames).result()
-            final = png.result()
-        scores = similarity(final, photo)
+            scores = scored.result()
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)
     metrics = scores | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
