@@ -1,6 +1,6 @@
 """`python -m nsp.render` end to end: strokes/s net of start-up, per brush and engine path.
 
-    python benchmarks/render.py [--repeats 3] [--strokes 6000] [--size 128]
+    python benchmarks/render.py [--repeats 10] [--strokes 6000] [--size 128]
 
 For each brush, a stroke file of N moderate random strokes (engine.py's) and one of its first
 stroke are rendered to PNG by the command, each in a fresh process; the rate is
@@ -31,21 +31,23 @@ from engine import strokes  # noqa: E402
 REFERENCE = {"watercolor": 630, "markerpen": 380, "tape": 6600}
 
 
-def seconds(path: Path, size: int, compile: bool, out: Path, repeats: int) -> float:
-    """Best wall time of ``repeats`` fresh ``nsp.render`` processes."""
-    command = [sys.executable, "-m", "nsp.render", f"strokes={path}", f"size={size}", f"out={out}",
-               f"compile={str(compile).lower()}"]
-    best = float("inf")
+def seconds(paths: list[Path], size: int, compile: bool, out: Path, repeats: int) -> list[float]:
+    """Best wall time of ``repeats`` fresh ``nsp.render`` processes per stroke file, the files taken
+    in turn each round, so a slower spell of a shared machine falls on all of them alike."""
+    best = [float("inf")] * len(paths)
     for _ in range(repeats):
-        start = time.perf_counter()
-        subprocess.run(command, check=True, capture_output=True)
-        best = min(best, time.perf_counter() - start)
+        for i, path in enumerate(paths):
+            command = [sys.executable, "-m", "nsp.render", f"strokes={path}", f"size={size}", f"out={out}",
+                       f"compile={str(compile).lower()}"]
+            start = time.perf_counter()
+            subprocess.run(command, check=True, capture_output=True)
+            best[i] = min(best[i], time.perf_counter() - start)
     return best
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=3, help="runs per measurement (the fastest counts)")
+    parser.add_argument("--repeats", type=int, default=10, help="runs per measurement (the fastest counts)")
     parser.add_argument("--strokes", type=int, default=6000)
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--brushes", nargs="+", default=list(BRUSHES), choices=list(BRUSHES))
@@ -59,10 +61,10 @@ def main() -> None:
             for n in (1, args.strokes):
                 files[n] = Path(tmp) / f"{name}_{n}.json"
                 save_strokes(files[n], StrokeFile(BRUSHES[name], x[:n], args.size, args.size, "white"))
-            seconds(files[args.strokes], args.size, True, Path(tmp) / "warm.png", 1)  # compiles, or loads the cache
+            seconds([files[args.strokes]], args.size, True, Path(tmp) / "warm.png", 1)  # compiles, or loads the cache
             for compile in (False, True):
-                one, many = (seconds(files[n], args.size, compile, Path(tmp) / "out.png", args.repeats)
-                             for n in (1, args.strokes))
+                one, many = seconds([files[1], files[args.strokes]], args.size, compile, Path(tmp) / "out.png",
+                                    args.repeats)
                 ref = REFERENCE.get(name)
                 if many > one:
                     rate = args.strokes / (many - one)
@@ -76,8 +78,8 @@ def main() -> None:
         f"`python -m nsp.render strokes=F size={args.size} out=x.png compile=false|true`, one fresh process per run, "
         f"{args.strokes:,} moderate random strokes (sizes in the lower quarter of their range, as in the engine "
         f"table) against their first stroke alone: strokes/s net of start-up = N / (T(N) − T(1)), T the best of "
-        f"{args.repeats} runs. T(1) is the start-up: Python, torch, reading the file, writing the PNG, and on the "
-        "compiled path loading the cached kernels (a brush's first compile on a machine takes minutes more, once). "
+        f"{args.repeats} runs, the two files run in turn. T(1) is the start-up: Python, torch, reading the file, writing the PNG, and on the "
+        "compiled path loading the cached kernels (a brush's first compile on a machine takes up to a minute more, once). "
         "`compile=null`, the default, takes the compiled path only where it is expected to finish sooner "
         "(`nsp.engine.fused.pays`). Reference: the paper's implementation's OpenCV engine on the same strokes, one "
         "core, as the speed issue measured it.\n\n"

@@ -23,11 +23,12 @@ from nsp.engine.kernels import near_tiles, shade_tiles
 CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" / "kernels"
 
 # Eager rendering, nanoseconds per pixel of the strokes' bounding boxes (a stroke's culled tiles are
-# a fraction of its box), and the share of it the compiled path takes: 2 threads of this project's
-# 2-core CPU, `paint_canvas` of 6000 moderate strokes (benchmarks/engine.py's) at 128 px, both ways.
+# a fraction of its box; `paint_canvas` of 3000 moderate strokes, benchmarks/engine.py's, at 512 px),
+# and the share of that time the compiled kernels take (6000 of them at 128 px): 2 threads of this
+# project's 2-core CPU.
 EAGER_NS = {"watercolor": 150.0, "markerpen": 95.0, "tape": 80.0, "oilpaint": 60.0}
-COMPILED_SHARE = {"watercolor": 0.2, "markerpen": 0.35, "tape": 0.5, "oilpaint": 0.85}
-COMPILE_SECONDS = 120.0  # a brush's culling and shading kernels, compiled the first time (60–120 s)
+COMPILED_SHARE = {"watercolor": 0.15, "markerpen": 0.2, "tape": 0.5, "oilpaint": 0.6}
+COMPILE_SECONDS = 120.0  # compiling a brush's culling and shading kernels the first time: 20–60 s here, ×2 for a busy machine
 MOST_PAIRS = 1 << 24  # the largest batch of (stroke, tile) pairs a kernel takes
 HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-px tiles
 

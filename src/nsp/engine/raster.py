@@ -135,9 +135,10 @@ def rasterize(
         order, layers = in_layers(t)  # b, in stroke order, stays so in each tile
         b, t = b[order], t[order]
 
-    # A pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be recycled
-    # by the allocator instead of page-faulted in afresh by every op.
-    step = max(1, PASS_PIXELS // tile**2)
+    # An eager pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be
+    # recycled by the allocator instead of page-faulted in afresh by every op; a compiled kernel
+    # keeps none, so it shades every pair at once (no copy to join the passes).
+    step = max(1, len(b) if compile else PASS_PIXELS // tile**2)
     dx, dy = tile_offsets(tile, x)
     passes = [run(shade_tiles, brush, xs, ts, dx, dy, height=height, width=width, tile=tile, softness=softness)
               for xs, ts in zip(x[b].split(step), t.split(step))]
