@@ -36,9 +36,14 @@ HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-p
 def package(stage, brush: Brush, consts: dict, device: torch.device) -> Path:
     """Where the compiled ``stage`` of ``brush`` lives: one file per torch version, stage, brush
     variant (its parameters, its texture's bytes), constants (canvas, tiling, edge) and device."""
-    texture = hashlib.sha1(Path(brush.texture_path).read_bytes()).hexdigest()[:12] if brush.texture_path else "own"
+    texture = _digest(brush.texture_path) if brush.texture_path else "own"
     fixed = "-".join(f"{key}{consts[key]}" for key in sorted(consts))
     return CACHE / torch.__version__ / f"{stage.__name__}-{brush.name}{brush.d}-{texture}-{fixed}-{device.type}.pt2"
+
+
+@functools.cache
+def _digest(path: str) -> str:
+    return hashlib.sha1(Path(path).read_bytes()).hexdigest()[:12]
 
 
 def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float | None = None, tile: int = 8) -> bool:
