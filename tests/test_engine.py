@@ -202,6 +202,20 @@ def test_paint_canvas_compiled_equals_eager(generator):
     assert (fused - eager).abs().max() < 0.1 and ((fused - eager).abs() > 1e-4).float().mean() < 1e-3
 
 
+@pytest.mark.parametrize("chunk", [7, 1024])  # frames across chunks, and chunks holding many frames
+def test_a_canvas_painted_until_each_frame_shows_exactly_the_strokes_before_it(generator, chunk):
+    from nsp.engine.canvas import TiledCanvas
+
+    brush = BRUSHES["watercolor"]
+    x = moderate(brush, 30, generator)
+    ends = [1, 4, 5, 12, 30]
+    canvas = TiledCanvas(torch.ones(3, 24, 40))
+    shown = {end: canvas.image().clone() for end in canvas.paint_until(brush, x, ends, chunk=chunk)}
+    assert list(shown) == ends
+    for end in ends:
+        assert torch.allclose(shown[end], paint_canvas(brush, x[:end], 24, 40), atol=1e-6)
+
+
 def test_paint_canvas_leaves_the_given_canvas_alone(generator):
     brush = BRUSHES["tape"]
     canvas = torch.rand(3, 16, 16, generator=generator)

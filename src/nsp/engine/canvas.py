@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import re
+from typing import Iterator
 
 import torch
 from torch import Tensor
@@ -62,9 +63,28 @@ class TiledCanvas:
               compile: bool = False) -> None:
         """Composite ``strokes`` (N, d), in order, a :func:`chunks` at a time (memory stays
         bounded); ``compile``: shade them on the compiled path (:mod:`nsp.engine.fused`)."""
+        for _ in self.paint_until(brush, strokes, [len(strokes)], softness=softness, chunk=chunk, compile=compile):
+            pass
+
+    def paint_until(self, brush: Brush, strokes: Tensor, ends: list[int], *, softness: float | None = None,
+                    chunk: int = 1024, compile: bool = False) -> Iterator[int]:
+        """:meth:`paint`, pausing once strokes[:end] are on the canvas to yield ``end``, for each of
+        ``ends`` (ascending, the last N): an animation's frames. Strokes are still rasterized a chunk
+        at a time, not a frame at a time."""
+        ends, done = iter(ends), 0
+        end = next(ends, None)
         for part in chunks(brush, strokes, self.height, self.width, chunk):
             tiles = rasterize(brush, part, self.height, self.width, softness=softness, tile=self.tile, compile=compile)
-            composite_tiles(tiles, self.tiles)
+            start, stop = done, done + len(part)
+            while start < stop:  # the chunk's strokes up to the next end, or to its own end
+                until = min(stop, len(strokes) if end is None else end)
+                whole = (start, until) == (done, stop)
+                composite_tiles(tiles if whole else tiles.between(start - done, until - done), self.tiles)
+                if until == end:
+                    yield end
+                    end = next(ends, None)
+                start = until
+            done = stop
 
     def image(self, top: int = 0, bottom: int | None = None, left: int = 0, right: int | None = None) -> Tensor:
         """The canvas, or its rows top:bottom and columns left:right: (3, h, w)."""

@@ -45,6 +45,13 @@ class Tiles:
     rows: int
     cols: int
 
+    def between(self, first: int, last: int) -> "Tiles":
+        """The pairs of strokes first, …, last − 1 alone, in layers of their own."""
+        keep = ((self.stroke >= first) & (self.stroke < last)).nonzero()[:, 0]
+        order, layers = in_layers(self.tile[keep])  # a tile's pairs, in layer order, are in stroke order
+        keep = keep[order]
+        return Tiles(self.stroke[keep], self.tile[keep], self.fg[keep], self.alpha[keep], layers, self.rows, self.cols)
+
 
 def in_layers(tile: Tensor) -> tuple[Tensor, list[int]]:
     """The order (P,) that sorts pairs, given in stroke order, into layers (see :class:`Tiles`),

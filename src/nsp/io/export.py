@@ -70,8 +70,7 @@ def write_gif(
     ends = frame_ends(len(strokes), frames)
     images = [_indexed(canvas.image(), palette)]  # each frame kept as a palette image only (1 byte a pixel)
     with torch.no_grad():
-        for start, end in zip(ends[:-1], ends[1:]):
-            canvas.paint(brush, strokes[start:end], compile=compile)
+        for start, end in zip(ends[:-1], canvas.paint_until(brush, strokes, ends[1:], compile=compile)):
             images.append(images[-1].copy())
             left, top, right, bottom = _touched(brush, strokes[start:end], height, width)
             if right > left and bottom > top:  # only the pixels the frame's strokes touched are mapped again
