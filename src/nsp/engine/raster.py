@@ -249,5 +249,5 @@ def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
     """
     sizes = tiles.layers
     for t, fg, alpha in zip(tiles.tile.split(sizes), tiles.fg.split(sizes), tiles.alpha[:, None].split(sizes)):
-        canvas.index_put_((t,), torch.lerp(canvas[t], fg, alpha))  # α·s + (1 − α)·h
+        canvas.index_copy_(0, t, torch.lerp(canvas.index_select(0, t), fg, alpha))  # α·s + (1 − α)·h
     return canvas
