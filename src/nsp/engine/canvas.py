@@ -29,9 +29,10 @@ def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
 
 
 CHUNK_PIXELS = 1 << 24  # bounding-box pixels of the strokes rendered at once; their tiles take ~16 B a pixel
+CHUNK_STROKES = 1024  # and the most strokes
 
 
-def chunks(brush: Brush, strokes: Tensor, height: int, width: int, most: int = 1024) -> list[Tensor]:
+def chunks(brush: Brush, strokes: Tensor, height: int, width: int, most: int = CHUNK_STROKES) -> list[Tensor]:
     """``strokes`` (N, d) cut into consecutive runs of at most ``most`` strokes whose bounding
     boxes on a ``height``×``width`` canvas hold at most :data:`CHUNK_PIXELS` pixels together (a
     larger stroke alone): what :class:`TiledCanvas` renders at once, so its memory is bounded by
@@ -59,7 +60,7 @@ class TiledCanvas:
         self.tile = tile
         self.tiles = to_tiles(canvas, tile)  # a copy: strokes are blended into it in place
 
-    def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = 1024,
+    def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = CHUNK_STROKES,
               compile: bool = False) -> None:
         """Composite ``strokes`` (N, d), in order, a :func:`chunks` at a time (memory stays
         bounded); ``compile``: shade them on the compiled path (:mod:`nsp.engine.fused`)."""
@@ -67,7 +68,7 @@ class TiledCanvas:
             pass
 
     def paint_until(self, brush: Brush, strokes: Tensor, ends: list[int], *, softness: float | None = None,
-                    chunk: int = 1024, compile: bool = False) -> Iterator[int]:
+                    chunk: int = CHUNK_STROKES, compile: bool = False) -> Iterator[int]:
         """:meth:`paint`, pausing once strokes[:end] are on the canvas to yield ``end``, for each of
         ``ends`` (ascending, the last N): an animation's frames. Strokes are still rasterized a chunk
         at a time, not a frame at a time."""
@@ -107,7 +108,7 @@ def paint_canvas(
     *,
     softness: float | None = None,
     canvas: Tensor | None = None,
-    chunk: int = 1024,
+    chunk: int = CHUNK_STROKES,
     tile: int = 8,
     compile: bool | None = None,
 ) -> Tensor:

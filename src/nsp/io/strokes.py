@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import json
-from operator import itemgetter
 from dataclasses import dataclass
+from operator import itemgetter
 from pathlib import Path
 
 import numpy as np
