@@ -199,7 +199,7 @@ def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_tha
     from nsp.painter.painter import Painter
     from nsp.render import RenderConfig, render
 
-    def ctrl_c(self, target, n):
+    def ctrl_c(self, target, n, detail=None):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(Painter, "paint", ctrl_c)

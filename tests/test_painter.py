@@ -65,6 +65,33 @@ def test_levels_are_the_papers_progression_and_extra_strokes_go_to_the_finest_bl
     assert progressive_grids(500, 256, 256, max_per_block=6, growth=1.4) == [1, 2, 3, 5, 7]  # the default
 
 
+@pytest.mark.parametrize(("height", "width"), [(256, 256), (192, 256)])
+def test_a_last_level_of_small_blocks_moves_to_a_finer_canvas_up_to_the_detail_size(height, width):
+    p = painter(max_per_block=6, detail_side=32)
+    plain, finer = p.levels(3000, height, width), p.levels(3000, height, width, finest=1024)
+    assert [level.side for level in plain][-1] < 32 <= finer[-1].side  # 13-px blocks: on a 630-px canvas
+    assert max(finer[-1].height, finer[-1].width) < 1024 and finer[-1].height / finer[-1].width == pytest.approx(height / width, abs=0.01)
+    assert finer[-1].blocks == plain[-1].blocks and sum(int(level.counts.sum()) for level in finer) == 3000
+    assert all(a.side == b.side and a.height == height for a, b in zip(plain[:-1], finer[:-1]))
+    assert p.levels(3000, height, width, finest=300)[-1].width == 300 * width // max(height, width)  # capped by it
+    assert p.levels(200, height, width)[-1].side >= 32 and p.levels(200, height, width, finest=1024)[-1].width == width
+    assert painter(detail_side=0).levels(3000, height, width, finest=1024)[-1].width == width
+
+
+def test_fine_detail_is_painted_where_the_last_level_works_on_the_finer_picture():
+    fine = torch.ones(3, 128, 128)
+    for row in (20, 50, 80, 110):
+        fine[:, row : row + 3] = 0.1  # 3-px dark lines: faint grey ones at 32 px
+    coarse = resize(fine, 32)
+    error = {}
+    for side in (0, 32):
+        p = painter("markerpen", grids=[1, 4], detail_side=side, steps_per_stroke=6)
+        strokes = p.paint(coarse, 48, detail=fine)
+        assert len(strokes) == 48
+        error[side] = l1(p, strokes, fine)
+    assert error[32] < 0.5 * error[0]
+
+
 def test_strokes_are_shared_by_error_exactly_and_never_past_the_cap():
     counts = share(20, torch.tensor([1.0, 2.0, 3.0, 0.0]), cap=10)
     assert counts.tolist() == [3, 7, 10, 0]

@@ -8,7 +8,7 @@ from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
 from torch.utils.tensorboard.summary import hparams
 
-from nsp.painter.images import psnr
+from nsp.painter.images import psnr, resize
 from nsp.painter.painter import Callback, Painter
 
 
@@ -36,7 +36,8 @@ class TensorBoard(Callback):
 
     def on_level(self, painter: Painter, level: int, canvas: Tensor) -> None:
         self.step = painter.step
-        self.writer.add_scalar("level/psnr", psnr(canvas, self.target).item(), self.step)
+        at_target = resize(canvas, tuple(self.target.shape[-2:]))  # a finer last level's canvas too
+        self.writer.add_scalar("level/psnr", psnr(at_target, self.target).item(), self.step)
         self.writer.add_image("canvas", canvas.clamp(0, 1), self.step)
         self.writer.flush()
 

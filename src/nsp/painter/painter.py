@@ -22,6 +22,7 @@ from torch import Tensor
 from nsp.brushes import Brush
 from nsp.engine import composite, paint_canvas, parse_color
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
+from nsp.painter.images import long_side, resize
 from nsp.painter.optimize import Optimizer, optimize_strokes
 from nsp.painter.palette import Palette
 from nsp.painter.placement import place_strokes
@@ -64,6 +65,8 @@ class Painter:
         init_size: range of new strokes' lengths, as fractions of the block width.
         candidates: how many regions of large error each new stroke is tried at (a few lengths
             each); the one that lowers the block's error most starts. 1: the largest error only.
+        detail_side: with a ``detail`` picture (:meth:`paint`), the last level works on a finer
+            canvas, up to the picture's size, until its blocks are this many pixels a side; 0: never.
         palette: keep each stroke's colours within the target's around it (see :class:`Palette`).
         background: canvas colour.
         generator: the only source of randomness (new strokes' sizes, angles, directions).
@@ -88,6 +91,7 @@ class Painter:
         crowd: float = 2.0,
         init_size: tuple[float, float] = (0.1, 0.3),
         candidates: int = 4,
+        detail_side: int = 0,
         palette: bool = True,
         background: str = "white",
         generator: torch.Generator | None = None,
@@ -100,7 +104,10 @@ class Painter:
             raise ValueError(f"split={split!r}: expected one of {', '.join(SPLITS)}")
         if growth < 1 or crowd < 1 or candidates < 1:
             raise ValueError(f"growth={growth}, crowd={crowd}, candidates={candidates}: expected at least 1")
+        if detail_side < 0:
+            raise ValueError(f"detail_side={detail_side}: expected ≥ 0 pixels (0: the last level on the target's canvas)")
         self.split, self.crowd, self.palette, self.candidates = split, crowd, palette, candidates
+        self.detail_side = detail_side
         self.steps_per_stroke, self.init_size, self.background = steps_per_stroke, tuple(init_size), background
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         self.callbacks = list(callbacks)
@@ -109,15 +116,23 @@ class Painter:
         self._done: list[Tensor] = []  # finished levels' strokes, whole-canvas parameters
         self._active: tuple[Level, Tensor, Tensor, int] | None = None  # level, x, painted mask, size
 
-    def levels(self, strokes: int, height: int, width: int) -> list[Level]:
-        """The schedule for ``strokes`` strokes on a height×width canvas; counts sum to ``strokes``."""
+    def levels(self, strokes: int, height: int, width: int, finest: int | None = None) -> list[Level]:
+        """The schedule for ``strokes`` strokes on a height×width canvas; counts sum to ``strokes``.
+        ``finest``: the longest side the last level's canvas may have (see ``detail_side``)."""
         grids = list(self.grids) if self.grids else progressive_grids(strokes, height, width, self.max_per_block, self.growth)
         blocks = [rows * cols for rows, cols in (grid_shape(m, height, width) for m in grids)]
-        counts = distribute(strokes, blocks)
-        return [Level.grid(m, height, width, self.overlap, n) for m, n in zip(grids, counts)]
+        levels = [Level.grid(m, height, width, self.overlap, n) for m, n in zip(grids, distribute(strokes, blocks))]
+        scale = 0.0 if finest is None else min(self.detail_side / levels[-1].side, finest / max(height, width))
+        if scale > 1:  # the last level's blocks on a finer canvas, its strokes shared among them again
+            size = long_side(height, width, round(max(height, width) * scale))
+            rows, cols = grid_shape(grids[-1], *size)
+            levels[-1] = Level.grid(grids[-1], *size, self.overlap, distribute(int(levels[-1].counts.sum()), [rows * cols])[0])
+        return levels
 
-    def paint(self, target: Tensor, strokes: int) -> Tensor:
-        """Paint ``target`` (3, H, W) in [0, 1] with exactly ``strokes`` strokes.
+    def paint(self, target: Tensor, strokes: int, detail: Tensor | None = None) -> Tensor:
+        """Paint ``target`` (3, H, W) in [0, 1] with exactly ``strokes`` strokes; with ``detail``,
+        the same picture at a finer size (3, H', W'), the last level may work on it, downsampled
+        (see ``detail_side``).
 
         Returns (strokes, d) in [0, 1], whole-canvas parameters in painting order. Interrupted,
         :meth:`strokes` still returns what was painted.
@@ -126,7 +141,13 @@ class Painter:
         self._done, self._active, self.step = [], None, 0
         color = torch.tensor(parse_color(self.background), dtype=target.dtype, device=target.device)
         canvas = color[:, None, None].expand(3, height, width)
-        for index, level in enumerate(self.levels(strokes, height, width)):
+        finest = None if detail is None or not self.detail_side else max(detail.shape[-2:])
+        for index, level in enumerate(self.levels(strokes, height, width, finest)):
+            if (level.height, level.width) != (height, width):  # the finer last level: the painting so far, on its canvas
+                height, width = level.height, level.width
+                target = resize(detail, (height, width))
+                with torch.no_grad():
+                    canvas = paint_canvas(self.brush, self.strokes(), height, width, self.background)
             x = self._paint_level(level, target, canvas)
             with torch.no_grad():
                 canvas = paint_canvas(self.brush, x, height, width, canvas=canvas)

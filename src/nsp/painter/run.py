@@ -61,8 +61,9 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
         raise BadInput(f"loss.l1={loss.l1}, loss.ot={loss.ot}, loss.ot_grid={loss.ot_grid}, loss.ot_eps={loss.ot_eps}, "
                        f"loss.ot_iters={loss.ot_iters}: expected weights ≥ 0, a grid of ≥ 2, eps > 0, iters ≥ 1")
     s = cfg.schedule
-    if s.steps_per_stroke < 0 or s.overlap < 0:
-        raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.overlap={s.overlap}: expected ≥ 0")
+    if s.steps_per_stroke < 0 or s.overlap < 0 or s.detail_side < 0:
+        raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.overlap={s.overlap}, "
+                       f"schedule.detail_side={s.detail_side}: expected ≥ 0")
     if s.growth < 1 or s.crowd < 1 or s.candidates < 1:
         raise BadInput(f"schedule.growth={s.growth}, schedule.crowd={s.crowd}, schedule.candidates={s.candidates}: "
                        "expected ≥ 1 (1: the paper's 1, 2, 3 … levels; a block's share at most crowd × the level's "
@@ -75,7 +76,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     try:
         parse_color(cfg.background)
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
-        photo = load_image(cfg.image, max_side=max(cfg.work_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0))
+        photo = load_image(cfg.image, max_side=max(cfg.work_size, cfg.render_size, SCORE_SIZE,
+                                                     cfg.style.size if cfg.style.image else 0))
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
         check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size",
                      frames=len(frame_ends(cfg.strokes, cfg.animation_frames)))
@@ -97,6 +99,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
                       growth=s.growth, overlap=s.overlap, split=str(s.split), crowd=s.crowd,
                       steps_per_stroke=s.steps_per_stroke, init_size=s.init_size, candidates=s.candidates,
+                      detail_side=s.detail_side,
                       palette=s.palette,
                       background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
     return painter, photo.to(device), style
@@ -150,7 +153,7 @@ def paint(cfg: DictConfig) -> dict:
         with ProgressBar(cfg.strokes, cfg.progress) as bar:
             painter.callbacks += [board, bar]
             try:
-                strokes = painter.paint(target, cfg.strokes)
+                strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size))
             except BaseException:
                 with shielded():
                     write_strokes_and_png(out, painter.strokes(), *shared)

@@ -58,6 +58,9 @@ class ScheduleConfig:
     steps_per_stroke: int = 8  # optimizer steps of the active set after each added stroke (paper: 20)
     init_size: list[float] = field(default_factory=lambda: [0.1, 0.3])  # new strokes' lengths, × block width
     candidates: int = 4  # regions of large error a new stroke is tried at (3 lengths each); the best one starts
+    # the last level works on a canvas finer than work_size (up to render_size) until its blocks are
+    # this many pixels a side: detail many strokes need (a 3000-stroke level has 13-px blocks at 256); 0: never
+    detail_side: int = 32
     palette: bool = True  # stroke colours stay within the target's around each stroke
 
 
