@@ -55,6 +55,7 @@ PAINT = [  # (case id, overrides, words the one line must contain)
     ("steps_per_stroke negative", ["schedule.steps_per_stroke=-1"], "schedule.steps_per_stroke=-1"),
     ("overlap negative", ["schedule.overlap=-1"], "schedule.overlap=-1"),
     ("detail_side negative", ["schedule.detail_side=-8"], "schedule.detail_side=-8"),
+    ("polish negative", ["schedule.polish=-2"], "schedule.polish=-2"),
     ("max_per_block zero", ["schedule.max_per_block=0"], "schedule.max_per_block=0"),
     ("loss unknown", ["loss=nope"], "loss=nope"),
     ("loss weight negative", ["loss.ot=-1"], "loss.ot=-1"),

@@ -39,7 +39,7 @@ def painter(brush: str = "tape", renderer=None, **options) -> Painter:
         PaintLoss(l1=1.0, ot=0.0, grid=48, eps=0.01, iters=5),
         partial(RMSprop, lr=0.01),
         generator=torch.Generator().manual_seed(0),
-        **{"steps_per_stroke": 4, **options},
+        **{"steps_per_stroke": 4, "polish": 0, **options},
     )
 
 
@@ -262,6 +262,14 @@ def test_non_square_targets_are_painted_as_they_are():
     strokes = painter("tape").paint(target, 12)
     assert len(strokes) == 12 and 0 <= strokes.min() and strokes.max() <= 1
     assert l1(painter("tape"), strokes, target) < 0.15
+
+
+def test_a_level_is_polished_as_a_whole_once_its_strokes_are_placed():
+    target = half_detailed(48)
+    plain, polished = (painter("markerpen", grids=[1, 3], split="uniform", polish=n) for n in (0, 12))
+    before, after = plain.paint(target, 24), polished.paint(target, 24)
+    assert polished.step == plain.step + 2 * 12  # 12 more steps on each of the two levels
+    assert l1(polished, after, target) < 0.9 * l1(plain, before, target)
 
 
 def test_same_seed_same_strokes():

@@ -5,9 +5,9 @@ Each level paints all its blocks as one batch (blocks × active strokes × pixel
 are shared among its blocks by the error left when it starts (or equally, as in the paper). Strokes
 join a block's active set one at a time: each is tried at a few regions of large error and lengths,
 and the one that lowers the block's error most joins; after each addition the whole active
-set takes ``steps_per_stroke`` optimizer steps (a block whose strokes are all placed is done: it
-took its 20 × N steps, paper §3.6), and each stroke's colours stay within those of the target
-around it. A finished level is rendered by the vector engine at the working resolution and is the
+set takes ``steps_per_stroke`` optimizer steps (paper §3.6: 20), and each stroke's colours stay
+within those of the target around it. Once every stroke is placed, all the level's strokes take
+``polish`` more steps together: the last strokes added would otherwise have had the fewest. A finished level is rendered by the vector engine at the working resolution and is the
 background of the next.
 """
 from __future__ import annotations
@@ -59,6 +59,7 @@ class Painter:
             paper's; 1.4: 1, 2, 3, 5, 7, 10, …, fewer coarse levels that later ones repaint).
         overlap: how much larger than its grid cell a block is (fraction).
         steps_per_stroke: optimizer steps after each stroke joins the active set (paper: 20).
+        polish: optimizer steps of each level's strokes together once all are placed (paper: 0).
         split: how a level's strokes are shared among its blocks: ``"error"``, in proportion to
             the error left in each (at most ``crowd`` times the mean); ``"uniform"``, equally (paper).
         crowd: the most strokes a block takes under ``split="error"``, as a multiple of the mean.
@@ -87,11 +88,12 @@ class Painter:
         growth: float = 1.4,
         overlap: float = 0.0,
         steps_per_stroke: int = 8,
+        polish: int = 8,
         split: str = "error",
         crowd: float = 2.0,
         init_size: tuple[float, float] = (0.1, 0.3),
         candidates: int = 4,
-        detail_side: int = 0,
+        detail_side: int = 32,
         palette: bool = True,
         background: str = "white",
         generator: torch.Generator | None = None,
@@ -104,10 +106,10 @@ class Painter:
             raise ValueError(f"split={split!r}: expected one of {', '.join(SPLITS)}")
         if growth < 1 or crowd < 1 or candidates < 1:
             raise ValueError(f"growth={growth}, crowd={crowd}, candidates={candidates}: expected at least 1")
-        if detail_side < 0:
-            raise ValueError(f"detail_side={detail_side}: expected ≥ 0 pixels (0: the last level on the target's canvas)")
+        if detail_side < 0 or polish < 0:
+            raise ValueError(f"detail_side={detail_side}, polish={polish}: expected ≥ 0")
         self.split, self.crowd, self.palette, self.candidates = split, crowd, palette, candidates
-        self.detail_side = detail_side
+        self.detail_side, self.polish = detail_side, polish
         self.steps_per_stroke, self.init_size, self.background = steps_per_stroke, tuple(init_size), background
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         self.callbacks = list(callbacks)
@@ -181,6 +183,25 @@ class Painter:
         painted = torch.zeros_like(exists)
         self._active = (level, x, painted, size)
         current = under.clone()
+
+        def optimize(live: Tensor, k: int, steps: int, shown: Tensor | None = None) -> None:
+            """``steps`` steps of the first k strokes of the blocks ``live`` (b,); of those, only the
+            ``shown`` (b, k) ones are painted (None: all)."""
+            def objective() -> tuple[Tensor, dict[str, Tensor]]:
+                out = self._blend(x[live, :k], under[live], goal[live], weights[live], size, shown)
+                return out, self.loss(out, goal[live])
+
+            for out, scalars in optimize_strokes(x, optimizer, steps, objective, self.frozen):
+                current[live] = out
+                if palette is not None:
+                    with torch.no_grad():
+                        strokes = x[live, :k]
+                        palette.clamp_(self.brush, strokes, live)
+                        x[live, :k] = strokes
+                self.step += 1
+                for callback in self.callbacks:
+                    callback.on_step(self, self.step, scalars)
+
         for k in range(depth):
             live = exists[:, k].nonzero()[:, 0]  # (b,) the blocks that still take strokes
             with torch.no_grad():
@@ -191,21 +212,9 @@ class Painter:
             if not self.steps_per_stroke:
                 with torch.no_grad():
                     current[live] = self._blend(x[live, : k + 1], under[live], goal[live], weights[live], size)
-
-            def objective(k: int = k, live: Tensor = live) -> tuple[Tensor, dict[str, Tensor]]:
-                out = self._blend(x[live, : k + 1], under[live], goal[live], weights[live], size)
-                return out, self.loss(out, goal[live])
-
-            for out, scalars in optimize_strokes(x, optimizer, self.steps_per_stroke, objective, self.frozen):
-                current[live] = out
-                if palette is not None:
-                    with torch.no_grad():
-                        strokes = x[live, : k + 1]
-                        palette.clamp_(self.brush, strokes, live)
-                        x[live, : k + 1] = strokes
-                self.step += 1
-                for callback in self.callbacks:
-                    callback.on_step(self, self.step, scalars)
+            optimize(live, k + 1, self.steps_per_stroke)
+        live = exists.any(1).nonzero()[:, 0]
+        optimize(live, depth, self.polish, exists[live].to(x.device))  # the whole level together
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
 
     def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, size: int) -> Tensor:
@@ -230,12 +239,16 @@ class Painter:
         cap = max(1, math.ceil(self.crowd * strokes / level.blocks))
         return dataclasses.replace(level, counts=share(strokes, error, cap))
 
-    def _blend(self, x: Tensor, under: Tensor, goal: Tensor, weights: Tensor, size: int) -> Tensor:
+    def _blend(self, x: Tensor, under: Tensor, goal: Tensor, weights: Tensor, size: int,
+               shown: Tensor | None = None) -> Tensor:
         """Composite the strokes x (B, k, d) of each block on its background: (B, 3, s, s); padding
-        shows the target."""
+        shows the target. ``shown`` (B, k) bool: the strokes painted (None: all)."""
         blocks, k, d = x.shape
         fg, alpha = self.renderer(x.reshape(-1, d), size)
-        out = composite(fg.view(blocks, k, 3, size, size), alpha.view(blocks, k, 1, size, size), under)
+        alpha = alpha.view(blocks, k, 1, size, size)
+        if shown is not None:
+            alpha = alpha * shown[:, :, None, None, None]
+        out = composite(fg.view(blocks, k, 3, size, size), alpha, under)
         return weights * out + (1 - weights) * goal
 
 

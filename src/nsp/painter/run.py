@@ -61,9 +61,9 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
         raise BadInput(f"loss.l1={loss.l1}, loss.ot={loss.ot}, loss.ot_grid={loss.ot_grid}, loss.ot_eps={loss.ot_eps}, "
                        f"loss.ot_iters={loss.ot_iters}: expected weights ≥ 0, a grid of ≥ 2, eps > 0, iters ≥ 1")
     s = cfg.schedule
-    if s.steps_per_stroke < 0 or s.overlap < 0 or s.detail_side < 0:
-        raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.overlap={s.overlap}, "
-                       f"schedule.detail_side={s.detail_side}: expected ≥ 0")
+    if min(s.steps_per_stroke, s.polish, s.overlap, s.detail_side) < 0:
+        raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.polish={s.polish}, "
+                       f"schedule.overlap={s.overlap}, schedule.detail_side={s.detail_side}: expected ≥ 0")
     if s.growth < 1 or s.crowd < 1 or s.candidates < 1:
         raise BadInput(f"schedule.growth={s.growth}, schedule.crowd={s.crowd}, schedule.candidates={s.candidates}: "
                        "expected ≥ 1 (1: the paper's 1, 2, 3 … levels; a block's share at most crowd × the level's "
@@ -98,8 +98,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.background))
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
                       growth=s.growth, overlap=s.overlap, split=str(s.split), crowd=s.crowd,
-                      steps_per_stroke=s.steps_per_stroke, init_size=s.init_size, candidates=s.candidates,
-                      detail_side=s.detail_side,
+                      steps_per_stroke=s.steps_per_stroke, polish=s.polish, init_size=s.init_size,
+                      candidates=s.candidates, detail_side=s.detail_side,
                       palette=s.palette,
                       background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
     return painter, photo.to(device), style
@@ -109,6 +109,7 @@ def settings(cfg: DictConfig) -> dict[str, str | int | float]:
     """The run's key settings, as its TensorBoard HPARAMS entry shows them."""
     return {"image": str(cfg.image), "brush": cfg.brush.name, "strokes": cfg.strokes, "renderer": str(cfg.renderer.name),
             "loss.l1": cfg.loss.l1, "loss.ot": cfg.loss.ot, "schedule.steps_per_stroke": cfg.schedule.steps_per_stroke,
+            "schedule.polish": cfg.schedule.polish,
             "work_size": cfg.work_size, "optimizer.lr": cfg.optimizer.get("lr", 0.0), "seed": cfg.seed,
             "style.image": str(cfg.style.image)}
 
