@@ -142,7 +142,7 @@ def grid(results: list[dict], brush: str, path: Path) -> None:
                 if (r["photo"], r["brush"], r["strokes"]) == (photo, brush, strokes):
                     sheet.paste(_thumb(r["image"], cell), (j * cell, i * cell))
         sheet.paste(_thumb(box256(load_image(photo)), cell), (len(budgets) * cell, i * cell))
-    sheet.save(path)
+    sheet.save(path, quality=85)  # JPEG: a sheet of paintings is a photo, a tenth of the PNG
 
 
 def _thumb(image: torch.Tensor, cell: int) -> Image.Image:
@@ -183,7 +183,7 @@ def main() -> None:
     IMAGES.mkdir(parents=True, exist_ok=True)
     plot(results, IMAGES / "painter_psnr.png")
     for brush in args.brushes:
-        grid(results, brush, IMAGES / f"painter_{brush}.png")
+        grid(results, brush, IMAGES / f"painter_{brush}.jpg")
     command = "python benchmarks/painter.py " + " ".join(
         f"--{name} {' '.join(map(str, value))}" for name, value in
         (("photos", args.photos), ("brushes", args.brushes), ("strokes", args.strokes), ("repeats", [args.repeats]),
@@ -204,7 +204,7 @@ def main() -> None:
         *rows,
         "",
         "PSNR against strokes: `docs/img/painter_psnr.png`; paintings at each budget (rows: photos, last column the "
-        "photo): " + ", ".join(f"`docs/img/painter_{b}.png`" for b in args.brushes) + ".",
+        "photo): " + ", ".join(f"`docs/img/painter_{b}.jpg`" for b in args.brushes) + ".",
     ])
     write_section("Painter: photos, brushes, budgets", body)
     print(body)
