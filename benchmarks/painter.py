@@ -9,6 +9,7 @@ of docs/benchmarks.md, docs/img/painter_psnr.png (PSNR against strokes) and docs
 each budget).
 
     python benchmarks/painter.py [--photos astronaut chelsea] [--brushes oilpaint] [--strokes 200 500] [--jobs 2]
+    python benchmarks/painter.py --photos astronaut --strokes 500 --set seed=1 schedule.polish=0   # a variant
 
 ``--jobs N`` paints N at a time (each painting takes about one core): the grid in 1/N of the time,
 each wall time measured beside N − 1 other paintings.
@@ -25,6 +26,7 @@ import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 import torch
@@ -63,16 +65,17 @@ def lpips_metric():
         return None
 
 
-def paint_once(photo: str, brush: str, strokes: int, out: Path, repeats: int = 1) -> dict:
-    """The fastest of ``repeats`` ``python -m nsp.paint`` processes: its wall seconds, the seconds
-    it spent painting (metrics.json), the rest (start-up, checks, files) and its painting (3, h, w)."""
+def paint_once(photo: str, brush: str, strokes: int, out: Path, repeats: int = 1, overrides: Sequence[str] = ()) -> dict:
+    """The fastest of ``repeats`` ``python -m nsp.paint`` processes (with ``overrides``): its wall
+    seconds, the seconds it spent painting (metrics.json), the rest (start-up, checks, files) and its
+    painting (3, h, w)."""
     best = None
     for _ in range(repeats):
         shutil.rmtree(out, ignore_errors=True)
         start = time.perf_counter()
         result = subprocess.run(
             [sys.executable, "-m", "nsp.paint", f"image={photo}", f"brush={brush}", f"strokes={strokes}",
-             "progress=false", f"hydra.run.dir={out}"], capture_output=True, text=True)
+             "progress=false", f"hydra.run.dir={out}", *overrides], capture_output=True, text=True)
         wall = time.perf_counter() - start
         if result.returncode:
             raise RuntimeError(result.stderr)
@@ -159,6 +162,8 @@ def main() -> None:
     parser.add_argument("--strokes", nargs="+", type=int, default=[200, 500, 1000, 3000, 5000])
     parser.add_argument("--repeats", type=int, default=1, help="processes per painting; the fastest counts")
     parser.add_argument("--jobs", type=int, default=1, help="paintings at a time")
+    parser.add_argument("--set", nargs="+", default=[], metavar="KEY=VALUE",
+                        help="nsp.paint overrides (seed=1 schedule.polish=0): a variant, printed; docs/ untouched")
     parser.add_argument("--date", default=time.strftime("%Y-%m-%d"))
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -169,8 +174,8 @@ def main() -> None:
     rows = [header, "|---|---|---:|---:|---:|---:|---:|---:|---:|" + ("---:|" if lpips else "")]
     cases = [(photo, brush, strokes) for photo in args.photos for brush in args.brushes for strokes in args.strokes]
     with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(args.jobs) as pool:
-        runs = [pool.submit(paint_once, photo, brush, strokes, Path(tmp) / f"{photo}_{brush}_{strokes}", args.repeats)
-                for photo, brush, strokes in cases]
+        runs = [pool.submit(paint_once, photo, brush, strokes, Path(tmp) / f"{photo}_{brush}_{strokes}", args.repeats,
+                            args.set) for photo, brush, strokes in cases]
         for (photo, brush, strokes), future in zip(cases, runs):  # in order, each as soon as it and those before are done
             run = future.result()
             s = scores(run["final"], load_image(photo), photo == "astronaut", lpips)
@@ -180,6 +185,8 @@ def main() -> None:
                         f"| {run['overhead']:.1f} | {s['psnr']:.2f} | {face} | "
                         f"{s['ssim']:.3f} |" + (f" {s['lpips']:.3f} |" if lpips else ""))
             print(rows[-1], flush=True)
+    if args.set:
+        return
     IMAGES.mkdir(parents=True, exist_ok=True)
     plot(results, IMAGES / "painter_psnr.png")
     for brush in args.brushes:

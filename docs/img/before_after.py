@@ -1,25 +1,34 @@
-"""docs/img/painter_before_after.png: the demo painting before and after issue 11, and the photo.
+"""Paintings of the astronaut side by side with the photo: the whole painting (256 px) above, the
+face from its 1024-px final.png below.
 
-Row 1: the whole demo (256 px); row 2: the face, from the 1024-px final.png. Make the two paintings
-first, then this image:
+    python docs/img/before_after.py OUT.png LABEL=final.png [LABEL=final.png ...]
 
-    git worktree add /tmp/before 0cca65e && (cd /tmp/before && python -m nsp.paint hydra.run.dir=/tmp/sp/base_demo)
-    python -m nsp.paint hydra.run.dir=/tmp/sp/after_demo
-    python docs/img/before_after.py /tmp/sp/base_demo/final.png /tmp/sp/after_demo/final.png
+docs/img/painter_before_after.png, the demo before and after issue 11:
+
+    git worktree add /tmp/before 0cca65e && (cd /tmp/before && python -m nsp.paint hydra.run.dir=/tmp/sp/before)
+    python -m nsp.paint hydra.run.dir=/tmp/sp/after
+    python docs/img/before_after.py docs/img/painter_before_after.png before=/tmp/sp/before/final.png after=/tmp/sp/after/final.png
+
+docs/img/painter_detail.png, 5000 strokes with the last level on the 256-px canvas and on a finer one:
+
+    python -m nsp.paint strokes=5000 schedule.detail_side=0 hydra.run.dir=/tmp/sp/coarse
+    python -m nsp.paint strokes=5000 hydra.run.dir=/tmp/sp/fine
+    python docs/img/before_after.py docs/img/painter_detail.png "last level 256 px=/tmp/sp/coarse/final.png" "finer last level=/tmp/sp/fine/final.png"
 """
 import sys
-from pathlib import Path
 
 import skimage.data
 from PIL import Image, ImageDraw
 
-before, after = (Image.open(path).convert("RGB") for path in sys.argv[1:3])
-photo = Image.fromarray(skimage.data.astronaut()).resize(before.size, Image.Resampling.LANCZOS)
-face = (300, 140, 620, 460)  # the face in 1024-px coordinates
+out, *pairs = sys.argv[1:]
+paintings = [(label, Image.open(path).convert("RGB")) for label, path in (pair.rsplit("=", 1) for pair in pairs)]
+size = paintings[0][1].size
+photo = Image.fromarray(skimage.data.astronaut()).resize(size, Image.Resampling.LANCZOS)
+face = tuple(round(v * size[0] / 1024) for v in (300, 140, 620, 460))  # the face in 1024-px coordinates
 cell = 256
-sheet = Image.new("RGB", (3 * cell, 2 * cell + 20), "white")
-for column, (image, label) in enumerate([(before, "before"), (after, "after"), (photo, "photo")]):
+sheet = Image.new("RGB", ((len(paintings) + 1) * cell, 2 * cell + 20), "white")
+for column, (label, image) in enumerate([*paintings, ("photo", photo)]):
     sheet.paste(image.resize((cell, cell), Image.Resampling.BOX), (column * cell, 20))
     sheet.paste(image.crop(face).resize((cell, cell), Image.Resampling.LANCZOS), (column * cell, 20 + cell))
     ImageDraw.Draw(sheet).text((column * cell + 4, 4), label, fill="black")
-sheet.quantize(256).save(Path(__file__).with_name("painter_before_after.png"), optimize=True)
+sheet.quantize(256).save(out, optimize=True)
