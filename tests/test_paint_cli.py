@@ -3,6 +3,7 @@ import json
 import re
 import subprocess
 import sys
+import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -115,6 +116,21 @@ def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeyp
     assert 0 < len(load_strokes(out / "strokes.json").strokes) < 12
     assert Image.open(out / "final.png").size == (96, 64)
     assert not (out / "metrics.json").exists()
+
+
+def test_painting_seconds_count_the_work_after_the_last_stroke_is_placed(photo, tmp_path, monkeypatch):
+    from nsp.painter.painter import Painter
+
+    paint_strokes = Painter.paint
+
+    def slow(self, *args, **kwargs):  # polish steps and the last canvas come after the bar's last stroke
+        strokes = paint_strokes(self, *args, **kwargs)
+        time.sleep(0.5)
+        return strokes
+
+    monkeypatch.setattr(Painter, "paint", slow)
+    metrics = paint(config(f"image={photo}", f"output_dir={tmp_path / 'run'}", *TINY))
+    assert metrics["painting_seconds"] >= 0.5
 
 
 @pytest.mark.parametrize(

@@ -1,6 +1,7 @@
 """What the painter reports while it works: TensorBoard curves and canvases, a progress bar."""
 from __future__ import annotations
 
+import time
 from typing import Mapping
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
@@ -53,7 +54,7 @@ class TensorBoard(Callback):
 
 class ProgressBar(Callback):
     """A rich progress bar over the strokes (or other ``unit``), with the level and the latest L1;
-    :attr:`seconds` is the time it shows once done."""
+    :attr:`seconds`, once its ``with`` block is done, the time the block took."""
 
     def __init__(self, total: int, enabled: bool = True, unit: str = "strokes"):
         self.progress = Progress(
@@ -70,15 +71,12 @@ class ProgressBar(Callback):
 
     def __enter__(self) -> "ProgressBar":
         self.progress.start()
+        self.start = time.perf_counter()
         return self
 
     def __exit__(self, *exc) -> None:
         self.progress.stop()
-
-    @property
-    def seconds(self) -> float:
-        task = self.progress.tasks[self.task]
-        return (task.finished_time if task.finished else task.elapsed) or 0.0
+        self.seconds = time.perf_counter() - self.start  # the whole work: steps after the last stroke too
 
     def advance(self, count: int, description: str) -> None:
         self.progress.update(self.task, advance=count, description=description)
