@@ -76,7 +76,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     try:
         parse_color(cfg.background)
         brush = get_brush(cfg.brush.name, cfg.brush.texture)
-        photo = load_image(cfg.image, max_side=max(cfg.work_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0))
+        photo = load_image(cfg.image, max_side=max(cfg.work_size, cfg.render_size, SCORE_SIZE,
+                                                     cfg.style.size if cfg.style.image else 0))
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
         check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size",
                      frames=len(frame_ends(cfg.strokes, cfg.animation_frames)))
@@ -145,8 +146,6 @@ def paint(cfg: DictConfig) -> dict:
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
-    # a finer last level's picture, read again at render_size: the work canvas stays the one read small
-    detail = resize(load_image(cfg.image, max_side=cfg.render_size), cfg.render_size)
     shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
     log.info(f"painting {cfg.image} with {cfg.strokes} {painter.brush.name} strokes…")
     phases = []  # what took how long, as the bars showed it
@@ -155,7 +154,7 @@ def paint(cfg: DictConfig) -> dict:
         with ProgressBar(cfg.strokes, cfg.progress) as bar:
             painter.callbacks += [board, bar]
             try:
-                strokes = painter.paint(target, cfg.strokes, detail=detail)
+                strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size))
             except BaseException:
                 with shielded():
                     write_strokes_and_png(out, painter.strokes(), *shared)
