@@ -166,6 +166,8 @@ def main() -> None:
                         help="nsp.paint overrides (seed=1 schedule.polish=0): a variant, printed; docs/ untouched")
     parser.add_argument("--date", default=time.strftime("%Y-%m-%d"))
     args = parser.parse_args()
+    if args.jobs < 1 or args.repeats < 1:
+        parser.error(f"--jobs {args.jobs} --repeats {args.repeats}: expected at least 1 each")
     torch.set_num_threads(1)
     lpips = lpips_metric()
     results = []
