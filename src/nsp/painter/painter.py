@@ -7,8 +7,9 @@ join a block's active set one at a time: each is tried at a few regions of large
 and the one that lowers the block's error most joins; after each addition the whole active
 set takes ``steps_per_stroke`` optimizer steps (paper §3.6: 20), and each stroke's colours stay
 within those of the target around it. Once every stroke is placed, all the level's strokes take
-``polish`` more steps together: the last strokes added would otherwise have had the fewest. A finished level is rendered by the vector engine at the working resolution and is the
-background of the next.
+``polish`` more steps together: the last strokes added would otherwise have had the fewest. A
+finished level is rendered by the vector engine at the working resolution and is the background of
+the next; a last level of small blocks may work on a finer canvas (``detail_side``).
 """
 from __future__ import annotations
 
