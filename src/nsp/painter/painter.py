@@ -89,7 +89,7 @@ class Painter:
         growth: float = 1.4,
         overlap: float = 0.0,
         steps_per_stroke: int = 8,
-        polish: int = 8,
+        polish: int = 4,
         split: str = "error",
         crowd: float = 2.0,
         init_size: tuple[float, float] = (0.1, 0.3),

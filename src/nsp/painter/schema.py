@@ -56,7 +56,7 @@ class ScheduleConfig:
     split: Split = Split.error  # error: by the error left in each block; uniform: equally (paper)
     crowd: float = 2.0  # split=error: the most strokes a block takes, × the level's mean
     steps_per_stroke: int = 8  # optimizer steps of the active set after each added stroke (paper: 20)
-    polish: int = 8  # optimizer steps of each level's strokes together once all are placed (paper: 0)
+    polish: int = 4  # optimizer steps of each level's strokes together once all are placed (paper: 0)
     init_size: list[float] = field(default_factory=lambda: [0.1, 0.3])  # new strokes' lengths, × block width
     candidates: int = 4  # regions of large error a new stroke is tried at (3 lengths each); the best one starts
     # the last level works on a canvas finer than work_size (up to render_size) until its blocks are
