@@ -144,7 +144,7 @@ class Painter:
         self._done, self._active, self.step = [], None, 0
         color = torch.tensor(parse_color(self.background), dtype=target.dtype, device=target.device)
         canvas = color[:, None, None].expand(3, height, width)
-        finest = None if detail is None or not self.detail_side else max(detail.shape[-2:])
+        finest = None if detail is None else max(detail.shape[-2:])  # detail_side 0: levels() keeps the canvas
         for index, level in enumerate(self.levels(strokes, height, width, finest)):
             if (level.height, level.width) != (height, width):  # the finer last level: the painting so far, on its canvas
                 height, width = level.height, level.width
