@@ -27,17 +27,21 @@ def extent(x: Tensor, reach: Tensor, height: int, width: int) -> Tensor:
     return torch.cat([pts.amin(1) - reach[:, None], pts.amax(1) + reach[:, None]], 1)
 
 
-def distance_bound(x: Tensor, pix: Pixels) -> Tensor:
-    """A 1-Lipschitz lower bound of the distance from each pixel to the curve: (P, N).
+def distance_bound(x: Tensor, pix: Pixels, r0: Tensor, r2: Tensor) -> Tensor:
+    """A 1-Lipschitz lower bound of the distance from each pixel to the discs swept along the curve,
+    their radius going linearly from r0 at P0 to r2 at P2 ((P, 1) px each): (P, N).
 
-    Uses the polyline through B(k/K); a quadratic leaves its chords by at most |P0 − 2P1 + P2|/(4K²).
+    Uses the polyline through B(k/K): a quadratic leaves its chords by at most |P0 − 2P1 + P2|/(4K²),
+    and along the piece of curve a chord spans, the radius is at most the larger of its ends'.
     """
     pts = control_points(x, pix.height, pix.width)
     k = segments_for(pix.height, pix.width)
     along, perp, length, _ = project_polyline(bezier_polyline(pts[:, 0], pts[:, 1], pts[:, 2], k), pix.px, pix.py)
     excess = torch.maximum(-along, along - length).clamp(min=0)
     chord_error = (pts[:, 0] - 2 * pts[:, 1] + pts[:, 2]).norm(dim=1) / (4 * k * k)
-    return torch.sqrt(perp**2 + excess**2 + 1e-8).amin(-1) - chord_error[:, None]
+    radius = r0 + (r2 - r0) * torch.linspace(0, 1, k + 1, device=x.device, dtype=x.dtype)  # (P, K + 1)
+    reach = torch.maximum(radius[:, :-1], radius[:, 1:])[:, None]  # (P, 1, K): the most on each chord
+    return (torch.sqrt(perp**2 + excess**2 + 1e-8) - reach).amin(-1) - chord_error[:, None]
 
 
 def from_reference(ctt: np.ndarray, radii: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> np.ndarray:

@@ -19,7 +19,11 @@ class MarkerPen(Brush):
         return bezier.extent(x, _SQRT2 * x[:, 6] * width / 4, height, width)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
-        return bezier.distance_bound(x, pix) - _SQRT2 * x[:, 6:7] * pix.width / 4
+        # The round body between the ends, and the square tip past either end, within √2·d of it.
+        d = x[:, 6:7] * pix.width / 4
+        pts = bezier.control_points(x, pix.height, pix.width)
+        ends = [torch.sqrt((pix.px - pts[:, i, :1]) ** 2 + (pix.py - pts[:, i, 1:]) ** 2 + 1e-8) for i in (0, 2)]
+        return torch.minimum(bezier.distance_bound(x, pix, d, d), torch.minimum(*ends) - _SQRT2 * d)
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         pts = bezier.control_points(x, pix.height, pix.width)

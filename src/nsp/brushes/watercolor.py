@@ -19,7 +19,7 @@ class Watercolor(Brush):
         return bezier.extent(x, torch.maximum(x[:, 6], x[:, 7]) * width / 4, height, width)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
-        return bezier.distance_bound(x, pix) - torch.maximum(x[:, 6], x[:, 7])[:, None] * pix.width / 4
+        return bezier.distance_bound(x, pix, x[:, 6:7] * pix.width / 4, x[:, 7:8] * pix.width / 4)
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         pts = bezier.control_points(x, pix.height, pix.width)

@@ -17,7 +17,9 @@ from pathlib import Path
 import torch
 from torch import Tensor
 
+from nsp import brushes
 from nsp.brushes.base import Brush
+from nsp.engine import kernels
 from nsp.engine.kernels import near_tiles, shade_tiles
 
 CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" / "kernels"
@@ -34,16 +36,25 @@ HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-p
 
 
 def package(stage, brush: Brush, consts: dict, device: torch.device) -> Path:
-    """Where the compiled ``stage`` of ``brush`` lives: one file per torch version, stage, brush
-    variant (its parameters, its texture's bytes), constants (canvas, tiling, edge) and device."""
+    """Where the compiled ``stage`` of ``brush`` lives: one file per torch version, version of the
+    code it is traced from, stage, brush variant (its parameters, its texture's bytes), constants
+    (canvas, tiling, edge) and device."""
     texture = _digest(brush.texture_path) if brush.texture_path else "own"
     fixed = "-".join(f"{key}{consts[key]}" for key in sorted(consts))
-    return CACHE / torch.__version__ / f"{stage.__name__}-{brush.name}{brush.d}-{texture}-{fixed}-{device.type}.pt2"
+    return CACHE / torch.__version__ / _code() / f"{stage.__name__}-{brush.name}{brush.d}-{texture}-{fixed}-{device.type}.pt2"
 
 
 @functools.cache
 def _digest(path: str) -> str:
     return hashlib.sha1(Path(path).read_bytes()).hexdigest()[:12]
+
+
+@functools.cache
+def _code() -> str:
+    """A digest of the source kernels are traced from (the brushes, the kernels): an edit to it, or
+    another release of nsp, compiles afresh instead of loading kernels of the old code."""
+    files = sorted(Path(brushes.__file__).parent.glob("*.py")) + [Path(kernels.__file__)]
+    return hashlib.sha1(b"".join(path.read_bytes() for path in files)).hexdigest()[:12]
 
 
 def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float | None = None, tile: int = 8) -> bool:

@@ -32,11 +32,11 @@ def tile_offsets(tile: int, like: Tensor) -> tuple[Tensor, Tensor]:
 def near_tiles(brush: Brush, x: Tensor, t: Tensor, *, height: int, width: int, tile: int, margin: float) -> Tensor:
     """(P,) whether stroke x[p] (P, d) can reach tile t[p] (P,) of a ``height``×``width`` canvas cut
     into ``tile``-pixel tiles, row by row, within ``margin`` px: the brush's 1-Lipschitz distance
-    bound at the tile's centre."""
+    bound at the tile's centre, which its pixel centres lie within (tile − 1)/√2 of."""
     cols = math.ceil(width / tile)
     cx = (t % cols).to(x.dtype) * tile + (tile - 1) / 2
     cy = torch.div(t, cols, rounding_mode="floor").to(x.dtype) * tile + (tile - 1) / 2
-    return brush.bound(x, Pixels(cx[:, None], cy[:, None], height, width))[:, 0] <= tile / math.sqrt(2) + margin
+    return brush.bound(x, Pixels(cx[:, None], cy[:, None], height, width))[:, 0] <= (tile - 1) / math.sqrt(2) + margin
 
 
 def shade_tiles(
