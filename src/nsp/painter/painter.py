@@ -245,11 +245,14 @@ class Painter:
         """Composite the strokes x (B, k, d) of each block on its background: (B, 3, s, s); padding
         shows the target. ``shown`` (B, k) bool: the strokes painted (None: all)."""
         blocks, k, d = x.shape
-        fg, alpha = self.renderer(x.reshape(-1, d), size)
-        alpha = alpha.view(blocks, k, 1, size, size)
-        if shown is not None:
-            alpha = alpha * shown[:, :, None, None, None]
-        out = composite(fg.view(blocks, k, 3, size, size), alpha, under)
+        if shown is None:
+            fg, alpha = self.renderer(x.reshape(-1, d), size)
+            fg, alpha = fg.view(blocks, k, 3, size, size), alpha.view(blocks, k, 1, size, size)
+        else:  # only the painted strokes are rendered; the other slots stay transparent
+            painted_fg, painted_alpha = self.renderer(x[shown], size)
+            fg = painted_fg.new_zeros(blocks, k, 3, size, size).index_put((shown,), painted_fg)
+            alpha = painted_alpha.new_zeros(blocks, k, 1, size, size).index_put((shown,), painted_alpha)
+        out = composite(fg, alpha, under)
         return weights * out + (1 - weights) * goal
 
 

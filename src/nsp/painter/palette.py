@@ -11,35 +11,43 @@ from nsp.painter.structure import smooth
 
 
 class Palette:
-    """Per-pixel colour ranges of target blocks: the darkest and brightest of each channel within a
-    window around the pixel (of the 3×3-smoothed target, so a lone pixel does not widen it).
+    """The colours of target blocks around each pixel: those of every other pixel within a window (of the
+    3×3-smoothed target, so a lone pixel counts little and edges' blends count), which a stroke's
+    colours are kept near. Not a per-channel range: between a beige face and a dark ground that
+    would allow a green no pixel there has.
 
     Args:
         target: (B, 3, h, w) the blocks as they should look.
         window: side of the window in block pixels (made odd).
-        margin: how far past the range a colour may go.
+        margin: how far (RGB distance) from the nearest of them a colour may go.
     """
 
-    def __init__(self, target: Tensor, window: int, margin: float = 0.02):
-        k = window | 1
-        smoothed = smooth(target, 3)
-        self.low = -window_max(-smoothed, k) - margin  # (B, 3, h, w)
-        self.high = window_max(smoothed, k) + margin
+    def __init__(self, target: Tensor, window: int, margin: float = 0.06):
+        self.colors = smooth(target, 3)  # (B, 3, h, w)
+        steps = torch.arange(0, (window | 1) // 2 + 1, 2, device=target.device)  # every other pixel: neighbours are alike
+        offsets = torch.cat([-steps.flip(0)[:-1], steps])  # …, −2, 0, 2, …
+        self.dy, self.dx = offsets.repeat_interleave(len(offsets)), offsets.repeat(len(offsets))  # (n,) each
+        self.margin = margin
 
     def clamp_(self, brush: Brush, x: Tensor, blocks: Tensor) -> None:
-        """Clamp, in place, the colours of strokes x (b, K, d) of the blocks ``blocks`` (b,) to the
-        range at each stroke's centre (the mean of its points)."""
-        _, _, h, w = self.low.shape
+        """Move, in place, each colour of strokes x (b, K, d) of the blocks ``blocks`` (b,) to within
+        ``margin`` of the nearest colour in the window at the stroke's centre (the mean of its points)."""
+        _, _, h, w = self.colors.shape
         xs = [i for i, k in enumerate(brush.kinds) if k == "x"]
         ys = [i for i, k in enumerate(brush.kinds) if k == "y"]
-        col = (x[..., xs].mean(-1) * (w - 1)).round().long().clamp(0, w - 1)  # (b, K)
-        row = (x[..., ys].mean(-1) * (h - 1)).round().long().clamp(0, h - 1)
-        block = blocks[:, None].expand_as(row)
-        low = self.low[block, :, row, col]  # (b, K, 3)
-        high = self.high[block, :, row, col]
+        col = (x[..., xs].mean(-1) * (w - 1)).round().long()  # (b, K)
+        row = (x[..., ys].mean(-1) * (h - 1)).round().long()
+        rows = (row[..., None] + self.dy).clamp(0, h - 1)  # (b, K, n)
+        cols = (col[..., None] + self.dx).clamp(0, w - 1)
+        block = blocks[:, None, None].expand_as(rows)
+        near = self.colors[block, :, rows, cols]  # (b, K, n, 3)
         colors = [i for i, k in enumerate(brush.kinds) if k == "color"]
-        repeat = len(colors) // 3
-        x[..., colors] = torch.maximum(torch.minimum(x[..., colors], high.repeat(1, 1, repeat)), low.repeat(1, 1, repeat))
+        c = x[..., colors].unflatten(-1, (-1, 3))  # (b, K, r, 3): a brush's r colours
+        distance = torch.cdist(c, near)  # (b, K, r, n)
+        nearest = torch.gather(near, 2, distance.argmin(-1, keepdim=True).expand(*c.shape))  # (b, K, r, 3)
+        away = c - nearest
+        reach = away.norm(dim=-1, keepdim=True)
+        x[..., colors] = (nearest + away * (self.margin / reach.clamp(min=self.margin))).flatten(-2)
 
 
 def window_max(image: Tensor, k: int) -> Tensor:
