@@ -11,7 +11,7 @@ from nsp.painter.structure import smooth
 
 
 class Palette:
-    """The colours of target blocks around each pixel: those of every other pixel within a window (of the
+    """The colours of target blocks around each pixel: those of the pixels within a window (of the
     3×3-smoothed target, so a lone pixel counts little and edges' blends count), which a stroke's
     colours are kept near. Not a per-channel range: between a beige face and a dark ground that
     would allow a green no pixel there has.
@@ -24,8 +24,8 @@ class Palette:
 
     def __init__(self, target: Tensor, window: int, margin: float = 0.06):
         self.colors = smooth(target, 3)  # (B, 3, h, w)
-        steps = torch.arange(0, (window | 1) // 2 + 1, 2, device=target.device)  # every other pixel: neighbours are alike
-        offsets = torch.cat([-steps.flip(0)[:-1], steps])  # …, −2, 0, 2, …
+        half = (window | 1) // 2
+        offsets = torch.arange(-half, half + 1, device=target.device)
         self.dy, self.dx = offsets.repeat_interleave(len(offsets)), offsets.repeat(len(offsets))  # (n,) each
         self.margin = margin
 
