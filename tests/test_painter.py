@@ -168,7 +168,7 @@ def test_a_portrait_painted_with_overshooting_steps_gets_no_patch_of_colour_the_
     patches = torch.nn.functional.avg_pool2d(painting[None], 5, stride=1)[0].flatten(1).T  # a patch, not a stray pixel
     photo_colours = torch.nn.functional.avg_pool2d(photo[None], 5, stride=1)[0].flatten(1).T  # edges' blends included
     # every patch has a colour the photo has somewhere, give or take edge blends with the blank canvas.
-    # Measured over lr 0.05/0.1 × generators 0-4: at most 0.16 away with the palette's nearest colours;
+    # Measured over lr 0.05/0.1 × generators 0-4: at most 0.18 away with the palette's nearest colours;
     # up to 0.34 with a per-channel range (green between the beige head and the dark ground); 0.41-0.78 without
     assert torch.cdist(patches, photo_colours).min(1).values.max() < 0.2
 

@@ -22,7 +22,7 @@ class Palette:
         margin: how far (RGB distance) from the nearest of them a colour may go.
     """
 
-    def __init__(self, target: Tensor, window: int, margin: float = 0.06):
+    def __init__(self, target: Tensor, window: int, margin: float = 0.1):
         self.colors = smooth(target, 3)  # (B, 3, h, w)
         half = (window | 1) // 2
         offsets = torch.arange(-half, half + 1, device=target.device)
