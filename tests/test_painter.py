@@ -15,7 +15,7 @@ from nsp.painter.images import resize
 from nsp.painter.losses import PaintLoss
 from nsp.painter.optimize import RMSprop
 from nsp.painter.painter import Callback, Painter
-from nsp.painter.palette import Palette, window_max
+from nsp.painter.palette import Palette
 from nsp.painter.placement import largest_errors, place_strokes
 from nsp.painter.structure import orientation, structure_tensor
 from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
@@ -182,14 +182,6 @@ def test_stroke_colours_are_clamped_to_the_targets_range_around_them():
     palette.clamp_(brush, x, torch.tensor([0]))
     torch.testing.assert_close(x[0, 0, 5:8], torch.zeros(3))  # on black: black
     torch.testing.assert_close(x[0, 1, 5:8], torch.tensor([0.5, 0.5, 0.5]))  # on grey: at most grey, at least grey
-
-
-@pytest.mark.parametrize("k", [1, 5, 19])
-def test_window_max_is_the_largest_value_in_the_square_around_each_pixel(k, generator):
-    image = torch.rand(2, 3, 23, 17, generator=generator)
-    expected = torch.stack([image[..., max(0, y - k // 2) : y + k // 2 + 1, max(0, x - k // 2) : x + k // 2 + 1].amax((-2, -1))
-                            for y in range(23) for x in range(17)], -1).view(2, 3, 23, 17)
-    assert torch.equal(window_max(image, k), expected)
 
 
 @pytest.mark.parametrize(("height", "width"), [(48, 48), (30, 80), (90, 50)])

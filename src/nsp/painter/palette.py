@@ -3,7 +3,6 @@ e.g. a white stroke across a face whose brightest skin is beige)."""
 from __future__ import annotations
 
 import torch
-import torch.nn.functional as F
 from torch import Tensor
 
 from nsp.brushes import Brush
@@ -48,10 +47,3 @@ class Palette:
         away = c - nearest
         reach = away.norm(dim=-1, keepdim=True)
         x[..., colors] = (nearest + away * (self.margin / reach.clamp(min=self.margin))).flatten(-2)
-
-
-def window_max(image: Tensor, k: int) -> Tensor:
-    """The largest value of each k×k window (k odd) centred on each pixel of ``image`` (B, C, h, w),
-    the same size: along the columns, then the rows (k times fewer comparisons than the square)."""
-    tall = F.max_pool2d(image, (k, 1), stride=1, padding=(k // 2, 0))
-    return F.max_pool2d(tall, (1, k), stride=1, padding=(0, k // 2))
