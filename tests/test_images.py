@@ -162,3 +162,20 @@ def test_a_20000_pixel_square_passes_the_size_limit(tmp_path):
         load_image(str(path), max_side=512)
     assert "decompression bomb" not in str(error.value)
     assert Image.MAX_IMAGE_PIXELS is not None  # PIL's guard is back for everyone else
+
+
+@pytest.mark.parametrize("channels", [1, 3])
+def test_ssim_is_skimages_gaussian_ssim(channels):
+    from skimage.metrics import structural_similarity
+
+    from nsp.painter.images import ssim
+
+    generator = torch.Generator().manual_seed(channels)
+    a = torch.rand(channels, 40, 33, generator=generator, dtype=torch.float64)
+    b = (a + 0.3 * torch.randn(a.shape, generator=generator, dtype=torch.float64)).clamp(0, 1)
+    expected = structural_similarity(a.permute(1, 2, 0).numpy(), b.permute(1, 2, 0).numpy(), data_range=1.0,
+                                     channel_axis=2, gaussian_weights=True, sigma=1.5, use_sample_covariance=False)
+    assert float(ssim(a, b)) == pytest.approx(expected, abs=1e-12)
+    assert float(ssim(a, a)) == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="over 11 px a side"):
+        ssim(a[:, :10], b[:, :10])

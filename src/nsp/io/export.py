@@ -26,7 +26,7 @@ GIF_FRAMES = 100  # the most frames of an animation after its empty canvas (nsp.
 
 def to_uint8(image: Tensor) -> np.ndarray:
     """(3, H, W) in [0, 1] -> (H, W, 3) uint8."""
-    return (image.detach().clamp(0, 1).permute(1, 2, 0).cpu().numpy() * 255 + 0.5).astype(np.uint8)
+    return image.detach().clamp(0, 1).mul(255).add_(0.5).to(torch.uint8).permute(1, 2, 0).contiguous().cpu().numpy()
 
 
 @contextmanager

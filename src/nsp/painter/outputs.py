@@ -10,7 +10,7 @@ from nsp.brushes import Brush
 from nsp.engine import paint_canvas
 from nsp.io.export import write_gif, write_png, write_svg
 from nsp.io.strokes import StrokeFile, save_strokes
-from nsp.painter.images import long_side, psnr, resize
+from nsp.painter.images import long_side, psnr, resize, ssim
 
 SCORE_SIZE = 256  # long side at which psnr and ssim compare the painting with the photo
 
@@ -39,10 +39,6 @@ def write_vector_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[i
 def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:
     """PSNR (dB) and SSIM of a painting against its photo, both (3, ·, ·) in [0, 1], compared at a
     256-pixel long side (SSIM with Wang et al.'s Gaussian window, σ = 1.5, as torchmetrics)."""
-    from skimage.metrics import structural_similarity  # torchmetrics' takes seconds to import
-
     shape = long_side(*photo.shape[-2:], SCORE_SIZE)  # the painting's own rounding may differ by a pixel
     a, b = (resize(image.cpu(), shape).double() for image in (painting, photo))
-    ssim = structural_similarity(a.permute(1, 2, 0).numpy(), b.permute(1, 2, 0).numpy(), data_range=1.0,
-                                 channel_axis=2, gaussian_weights=True, sigma=1.5, use_sample_covariance=False)
-    return {"psnr": round(float(psnr(a, b)), 3), "ssim": round(float(ssim), 4)}
+    return {"psnr": round(float(psnr(a, b)), 3), "ssim": round(float(ssim(a, b)), 4)}

@@ -14,6 +14,7 @@ from __future__ import annotations
 import torch
 from torch import Tensor
 
+from nsp.painter.images import ssim
 from nsp.style.color import rgb_to_lab
 from nsp.style.features import random_features
 from nsp.style.losses import sliced_wasserstein, style_loss
@@ -46,14 +47,11 @@ def coherence(plain: Tensor, styled: Tensor, near: float = NEAR, samples: int = 
 def luminance_ssim(painting: Tensor, photo: Tensor) -> float:
     """SSIM of the lightness L* (:mod:`nsp.style.color`) of ``painting`` and ``photo`` (same size),
     with a Gaussian window (σ = 1.5), as ``nsp.painter.outputs.similarity`` compares colours."""
-    from skimage.metrics import structural_similarity
-
     if painting.shape != photo.shape:
         raise ValueError(f"luminance_ssim needs images of one size: got {tuple(painting.shape)} and "
                          f"{tuple(photo.shape)}")
-    a, b = (rgb_to_lab(x.detach().cpu().double(), dim=0)[0].numpy() for x in (painting, photo))
-    return float(structural_similarity(a, b, data_range=1.0, gaussian_weights=True, sigma=1.5,
-                                       use_sample_covariance=False))
+    a, b = (rgb_to_lab(x.detach().cpu().double(), dim=0)[:1] for x in (painting, photo))
+    return float(ssim(a, b))
 
 
 def texture_distance(image: Tensor, style: Tensor, seed: int = HELD_OUT_SEED) -> float:
