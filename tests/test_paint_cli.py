@@ -141,14 +141,18 @@ def test_painting_seconds_count_the_work_after_the_last_stroke_is_placed(photo, 
         ("strokes=0", "strokes=0: expected a positive number"),
         ("background=blue-ish", "background=blue-ish is not a colour"),
         ("schedule.init_size=[0.5,0.1]", "schedule.init_size=[0.5, 0.1]: expected [low, high]"),
+        ("style.image={strip}", "style.size=128: style.image is 1×128 px at that size, under the 4 px a side the style "
+                                "network needs; use style.size=1024 or more"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(override, message, photo, tmp_path):
     notes = tmp_path / "notes.txt"
     notes.write_text("not a picture")
+    strip = tmp_path / "strip.png"  # too thin for the style network at style.size
+    Image.fromarray(np.zeros((2, 300, 3), dtype=np.uint8)).save(strip)
     out = tmp_path / "run"
     with pytest.raises(BadInput, match=re.escape(message)) as error:
-        paint(config(f"image={photo}", override.format(notes=notes), f"output_dir={out}", *TINY[1:]))
+        paint(config(f"image={photo}", override.format(notes=notes, strip=strip), f"output_dir={out}", *TINY[1:]))
     assert "\n" not in str(error.value)
     assert not out.exists()
 

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import logging
+import math
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -30,7 +31,7 @@ from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, w
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer, load_neural
 from nsp.painter.stylize import stylize
-from nsp.style import StyleLoss, WeightsNotFound
+from nsp.style import MIN_SIDE, StyleLoss, WeightsNotFound
 
 POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_frames", "renderer.softness",
             "renderer.block_size", "schedule.max_per_block")
@@ -91,7 +92,15 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
             raise BadInput(f"style.steps={cfg.style.steps}, style.size={cfg.style.size}: expected steps ≥ 0, size > 0")
         style = None
         if cfg.style.image is not None:
-            image = resize(load_image(cfg.style.image, max_side=cfg.style.size, key="style.image"), cfg.style.size)
+            image = load_image(cfg.style.image, max_side=cfg.style.size, key="style.image")
+            for key, picture in (("image", photo), ("style.image", image)):
+                shape = long_side(*picture.shape[-2:], cfg.style.size)
+                if min(shape) < MIN_SIDE:
+                    raise BadInput(f"style.size={cfg.style.size}: {key} is {shape[0]}×{shape[1]} px at that size, under the "
+                                   f"{MIN_SIDE} px a side the style network needs; use style.size="
+                                   f"{math.ceil(MIN_SIDE * max(picture.shape[-2:]) / max(min(picture.shape[-2:]) - 1, 0.5))} "
+                                   "or more")  # − 1: the picture may have been read shrunk, its aspect rounded
+            image = resize(image, cfg.style.size)
             style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed).to(device)
     except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None

@@ -3,6 +3,7 @@
 a whole painting, and the measures of a stylized painting (:mod:`nsp.style.measures`)."""
 from nsp.style.features import (
     BACKBONES,
+    MIN_SIDE,
     RandomFeatures,
     TappedFeatures,
     WeightsNotFound,
@@ -16,6 +17,7 @@ from nsp.style.recolor import Recoloring
 
 __all__ = [
     "BACKBONES",
+    "MIN_SIDE",
     "RandomFeatures",
     "Recoloring",
     "StyleLoss",
