@@ -63,6 +63,7 @@ def test_the_first_line_says_what_will_be_painted_and_printed_configs_stay_clean
 
     assert opening(["image=cat.jpg", "strokes=40", "brush=tape"]) == "painting cat.jpg with 40 tape strokes…"
     assert opening([]) == "painting astronaut with 500 oilpaint strokes…"
+    assert opening(["strokes=1"]) == "painting astronaut with 1 oilpaint stroke…"
     assert opening(["-m", "seed=0,1"]).startswith("starting python -m nsp.paint -m seed=0,1")
     assert opening(["experiment=ot_push"]).startswith("starting")
     result = subprocess.run([sys.executable, "-m", "nsp.paint", "strokes=7", "--cfg", "job"], capture_output=True, text=True)

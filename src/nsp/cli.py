@@ -285,6 +285,11 @@ def sweeping(argv: list[str]) -> bool:
     return any(arg in ("-m", "--multirun") for arg in argv)
 
 
+def counted(count: int | str, noun: str) -> str:
+    """``count`` and ``noun``, plural unless the count is 1: "1 oilpaint stroke", "500 oilpaint strokes"."""
+    return f"{count} {noun}" + ("" if str(count) == "1" else "s")
+
+
 def chosen(argv: list[str], name: str, key: str) -> str | None:
     """What ``key`` (a plain key or a config group) of ``python -m nsp.<name>`` will be, from the
     command line or else the command's YAML, told without composing (which imports torch): None

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
 
-from nsp.cli import INTERRUPTED, Usage, chosen, command, finish, run_job
+from nsp.cli import INTERRUPTED, Usage, chosen, command, counted, finish, run_job
 
 log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.log
 
@@ -56,7 +56,7 @@ def opening(argv: list[str]) -> str:
     image, strokes, brush = (chosen(argv, "paint", key) for key in ("image", "strokes", "brush"))
     if None in (image, strokes, brush):
         return f"starting {' '.join(['python -m nsp.paint', *argv])}…"
-    return f"painting {image} with {strokes} {brush} strokes…"
+    return f"painting {image} with {counted(strokes, brush + ' stroke')}…"
 
 
 def main(cfg: DictConfig) -> float | None:

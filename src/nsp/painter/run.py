@@ -18,7 +18,7 @@ from omegaconf import DictConfig, OmegaConf
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.brushes import get_brush
-from nsp.cli import shielded
+from nsp.cli import counted, shielded
 from nsp.engine import parse_color
 from nsp.engine.device import resolve_device
 from nsp.engine.memory import check_canvas
@@ -156,7 +156,7 @@ def paint(cfg: DictConfig) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
     shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
-    log.info(f"painting {cfg.image} with {cfg.strokes} {painter.brush.name} strokes…")
+    log.info(f"painting {cfg.image} with {counted(cfg.strokes, painter.brush.name + ' stroke')}…")
     phases = []  # what took how long, as the bars showed it
     with SummaryWriter(out / "tensorboard") as writer:
         board = TensorBoard(writer, target)
@@ -169,7 +169,7 @@ def paint(cfg: DictConfig) -> dict:
                     write_strokes_and_png(out, painter.strokes(), *shared)
                 raise
         painting = bar.seconds
-        phases.append(f"painted {len(strokes)} {painter.brush.name} strokes in {painting:.1f} s")
+        phases.append(f"painted {counted(len(strokes), painter.brush.name + ' stroke')} in {painting:.1f} s")
         if style is not None:
             write_png(out / "style.png", style.image[0])
             try:
