@@ -96,10 +96,10 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
             for key, picture in (("image", photo), ("style.image", image)):
                 shape = long_side(*picture.shape[-2:], cfg.style.size)
                 if min(shape) < MIN_SIDE:
+                    short, long = sorted(picture.shape[-2:])  # short − 1: it may have been read shrunk, its aspect rounded
+                    need = math.ceil(MIN_SIDE * long / max(short - 1, 0.5))
                     raise BadInput(f"style.size={cfg.style.size}: {key} is {shape[0]}×{shape[1]} px at that size, under the "
-                                   f"{MIN_SIDE} px a side the style network needs; use style.size="
-                                   f"{math.ceil(MIN_SIDE * max(picture.shape[-2:]) / max(min(picture.shape[-2:]) - 1, 0.5))} "
-                                   "or more")  # − 1: the picture may have been read shrunk, its aspect rounded
+                                   f"{MIN_SIDE} px a side the style network needs; use style.size={need} or more")
             image = resize(image, cfg.style.size)
             style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed).to(device)
     except (ValueError, WeightsNotFound) as error:
