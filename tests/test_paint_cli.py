@@ -53,7 +53,8 @@ def test_a_painting_leaves_every_file_valid(photo, tmp_path):
     with Image.open(out / "animation.gif") as gif:
         assert gif.n_frames > 2 and gif.size == (48, 32)
     assert json.loads((out / "metrics.json").read_text()) == metrics
-    assert set(metrics) == {"psnr", "ssim", "seconds", "painting_seconds", "strokes"} and metrics["strokes"] == 12
+    assert set(metrics) == {"psnr", "ssim", "seconds", "painting_seconds", "strokes", "faces"} and metrics["strokes"] == 12
+    assert metrics["faces"] == 0
     assert 0 < metrics["painting_seconds"] < metrics["seconds"]
     assert metrics["psnr"] > 8  # the blank canvas scores 5 dB
 
@@ -141,6 +142,7 @@ def test_painting_seconds_count_the_work_after_the_last_stroke_is_placed(photo, 
         ("strokes=0", "strokes=0: expected a positive number"),
         ("background=blue-ish", "background=blue-ish is not a colour"),
         ("schedule.init_size=[0.5,0.1]", "schedule.init_size=[0.5, 0.1]: expected [low, high]"),
+        ("schedule.face_share=1.5", "schedule.face_share=1.5: expected a share of the strokes in [0, 1)"),
         ("style.image={strip}", "style.size=128: style.image is 1×128 px at that size, under the 4 px a side the style "
                                 "network needs; use style.size=1024 or more"),
     ],
@@ -219,7 +221,7 @@ def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_tha
     from nsp.painter.painter import Painter
     from nsp.render import RenderConfig, render
 
-    def ctrl_c(self, target, n, detail=None):
+    def ctrl_c(self, target, n, detail=None, faces=()):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(Painter, "paint", ctrl_c)

@@ -9,6 +9,12 @@ docs/img/painter_before_after.png, the demo before and after issue 11:
     python -m nsp.paint hydra.run.dir=/tmp/sp/after
     python docs/img/before_after.py docs/img/painter_before_after.png before=/tmp/sp/before/final.png after=/tmp/sp/after/final.png
 
+docs/img/painter_faces.png, the demo without and with a level of its own for the face:
+
+    python -m nsp.paint schedule.face_share=0 hydra.run.dir=/tmp/sp/noface
+    python -m nsp.paint hydra.run.dir=/tmp/sp/face
+    python docs/img/before_after.py docs/img/painter_faces.png "no face level=/tmp/sp/noface/final.png" "face level=/tmp/sp/face/final.png"
+
 docs/img/painter_detail.png, 5000 strokes with the last level on the 256-px canvas and on a finer one:
 
     python -m nsp.paint strokes=5000 schedule.detail_side=0 hydra.run.dir=/tmp/sp/coarse

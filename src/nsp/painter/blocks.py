@@ -1,5 +1,6 @@
 """Geometry of the progressive schedule (paper §3, "progressive rendering"): levels of overlapping
 square blocks, how many strokes each block gets, and how a block's strokes move onto the canvas.
+A level may also cover regions only (the faces found in a photo) with finer blocks.
 
 At level m the canvas is cut into m blocks along its long side (and proportionally fewer along a
 short one, so blocks stay square for renderers with square outputs); neighbouring blocks overlap.
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Sequence
 
 import torch
 import torch.nn.functional as F
@@ -95,6 +97,19 @@ class Level:
 
         ys, xs = torch.meshgrid(starts(rows, height), starts(cols, width), indexing="ij")
         return cls(side, torch.stack([ys.flatten(), xs.flatten()], 1), counts, height, width)
+
+    @classmethod
+    def regions(cls, boxes: Sequence[tuple[float, float, float, float]], grid: int, height: int, width: int,
+                strokes: int) -> "Level":
+        """Blocks over parts of the canvas only: each box (top, left, height, width as fractions of
+        the canvas) is tiled with square blocks, ``grid`` of them along the largest box's long side,
+        the same side for all; ``strokes`` are shared equally among the blocks."""
+        side = max(1, math.ceil(max(max(h * height, w * width) for _, _, h, w in boxes) / grid))
+        origins = [(round(top * height) + i * side, round(left * width) + j * side)
+                   for top, left, h, w in boxes
+                   for i in range(max(1, math.ceil(h * height / side - 1e-9)))
+                   for j in range(max(1, math.ceil(w * width / side - 1e-9)))]
+        return cls(side, torch.tensor(origins, device="cpu"), distribute(strokes, [len(origins)])[0], height, width)
 
     @property
     def blocks(self) -> int:

@@ -9,7 +9,9 @@ set takes ``steps_per_stroke`` optimizer steps (paper §3.6: 20), and each strok
 within those of the target around it. Once every stroke is placed, all the level's strokes take
 ``polish`` more steps together: the last strokes added would otherwise have had the fewest. A
 finished level is rendered by the vector engine at the working resolution and is the background of
-the next; a last level of small blocks may work on a finer canvas (``detail_side``).
+the next; a last level of small blocks may work on a finer canvas (``detail_side``). Faces found in the
+photo (:mod:`nsp.painter.faces`) get a share of the strokes in a level of finer blocks of their own,
+painted last.
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from torch import Tensor
 from nsp.brushes import Brush
 from nsp.engine import composite, paint_canvas, parse_color
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
+from nsp.painter.faces import Box
 from nsp.painter.images import long_side, resize
 from nsp.painter.optimize import Optimizer, optimize_strokes
 from nsp.painter.palette import Palette
@@ -30,6 +33,7 @@ from nsp.painter.placement import place_strokes
 
 SPLITS = ("uniform", "error")
 LENGTHS = (0.5, 1.0, 2.0)  # a candidate stroke per length at each error peak, × the reach of the colour there
+FACE_GRID = 4  # a face level has at least this many blocks along the largest face (eyes, nose, mouth: 2–4 px strokes)
 
 
 class Callback:
@@ -69,6 +73,8 @@ class Painter:
             each); the one that lowers the block's error most starts. 1: the largest error only.
         detail_side: with a ``detail`` picture (:meth:`paint`), the last level works on a finer
             canvas, up to the picture's size, until its blocks are this many pixels a side; 0: never.
+        face_share: with ``faces`` (:meth:`paint`), this share of the strokes is painted last, in a
+            level of blocks over the faces alone (at least ``FACE_GRID`` along a face); 0: none.
         palette: keep each stroke's colours within the target's around it (see :class:`Palette`).
         background: canvas colour.
         generator: the only source of randomness (new strokes' sizes, angles, directions).
@@ -95,6 +101,7 @@ class Painter:
         init_size: tuple[float, float] = (0.1, 0.3),
         candidates: int = 4,
         detail_side: int = 32,
+        face_share: float = 0.08,
         palette: bool = True,
         background: str = "white",
         generator: torch.Generator | None = None,
@@ -109,8 +116,10 @@ class Painter:
             raise ValueError(f"growth={growth}, crowd={crowd}, candidates={candidates}: expected at least 1")
         if detail_side < 0 or polish < 0:
             raise ValueError(f"detail_side={detail_side}, polish={polish}: expected ≥ 0")
+        if not 0 <= face_share < 1:
+            raise ValueError(f"face_share={face_share}: expected a share in [0, 1)")
         self.split, self.crowd, self.palette, self.candidates = split, crowd, palette, candidates
-        self.detail_side, self.polish = detail_side, polish
+        self.detail_side, self.polish, self.face_share = detail_side, polish, face_share
         self.steps_per_stroke, self.init_size, self.background = steps_per_stroke, tuple(init_size), background
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         self.callbacks = list(callbacks)
@@ -119,23 +128,39 @@ class Painter:
         self._done: list[Tensor] = []  # finished levels' strokes, whole-canvas parameters
         self._active: tuple[Level, Tensor, Tensor, int] | None = None  # level, x, painted mask, size
 
-    def levels(self, strokes: int, height: int, width: int, finest: int | None = None) -> list[Level]:
+    def levels(self, strokes: int, height: int, width: int, finest: int | None = None,
+               faces: Sequence[Box] = ()) -> list[Level]:
         """The schedule for ``strokes`` strokes on a height×width canvas; counts sum to ``strokes``.
-        ``finest``: the longest side the last level's canvas may have (see ``detail_side``)."""
+        ``finest``: the longest side the last levels' canvas may have (see ``detail_side``);
+        ``faces``: boxes that get a level of their own, last (see ``face_share``); the other levels
+        are those of the strokes left."""
+        on_faces = round(self.face_share * strokes) if faces else 0
+        strokes -= on_faces
         grids = list(self.grids) if self.grids else progressive_grids(strokes, height, width, self.max_per_block, self.growth)
         blocks = [rows * cols for rows, cols in (grid_shape(m, height, width) for m in grids)]
         levels = [Level.grid(m, height, width, self.overlap, n) for m, n in zip(grids, distribute(strokes, blocks))]
-        scale = 0.0 if finest is None else min(self.detail_side / levels[-1].side, finest / max(height, width))
-        if scale > 1:  # the last level's blocks on a finer canvas, its strokes shared among them again
-            size = long_side(height, width, round(max(height, width) * scale))
-            rows, cols = grid_shape(grids[-1], *size)
-            levels[-1] = Level.grid(grids[-1], *size, self.overlap, distribute(int(levels[-1].counts.sum()), [rows * cols])[0])
+        last, count = grids[-1], int(levels[-1].counts.sum())
+        levels[-1] = self._detailed(lambda h, w: Level.grid(last, h, w, self.overlap,
+                                                            distribute(count, [math.prod(grid_shape(last, h, w))])[0]),
+                                    height, width, finest)
+        if on_faces:
+            grid = max(FACE_GRID, math.ceil(math.sqrt(on_faces / self.max_per_block)))
+            levels.append(self._detailed(lambda h, w: Level.regions(faces, grid, h, w, on_faces), height, width, finest))
         return levels
 
-    def paint(self, target: Tensor, strokes: int, detail: Tensor | None = None) -> Tensor:
+    def _detailed(self, level: Callable[[int, int], Level], height: int, width: int, finest: int | None) -> Level:
+        """``level(h, w)`` on the height×width canvas, or on a finer one (long side up to ``finest``)
+        where its blocks would be under ``detail_side`` pixels; its strokes are shared among its
+        blocks there again."""
+        coarse = level(height, width)
+        scale = 0.0 if finest is None else min(self.detail_side / coarse.side, finest / max(height, width))
+        return level(*long_side(height, width, round(max(height, width) * scale))) if scale > 1 else coarse
+
+    def paint(self, target: Tensor, strokes: int, detail: Tensor | None = None, faces: Sequence[Box] = ()) -> Tensor:
         """Paint ``target`` (3, H, W) in [0, 1] with exactly ``strokes`` strokes; with ``detail``,
-        the same picture at a finer size (3, H', W'), the last level may work on it, downsampled
-        (see ``detail_side``).
+        the same picture at a finer size (3, H', W'), the last levels may work on it, downsampled
+        (see ``detail_side``); ``faces`` (e.g. from :func:`nsp.painter.faces.find_faces`) get a
+        level of their own (see ``face_share``).
 
         Returns (strokes, d) in [0, 1], whole-canvas parameters in painting order. Interrupted,
         :meth:`strokes` still returns what was painted.
@@ -145,8 +170,8 @@ class Painter:
         color = torch.tensor(parse_color(self.background), dtype=target.dtype, device=target.device)
         canvas = color[:, None, None].expand(3, height, width)
         finest = None if detail is None else max(detail.shape[-2:])  # detail_side 0: levels() keeps the canvas
-        for index, level in enumerate(self.levels(strokes, height, width, finest)):
-            if (level.height, level.width) != (height, width):  # the finer last level: the painting so far, on its canvas
+        for index, level in enumerate(self.levels(strokes, height, width, finest, faces)):
+            if (level.height, level.width) != (height, width):  # a finer last level: the painting so far, on its canvas
                 height, width = level.height, level.width
                 target = resize(detail, (height, width))
                 with torch.no_grad():

@@ -25,6 +25,7 @@ from nsp.engine.memory import check_canvas
 from nsp.errors import BadInput
 from nsp.io.export import frame_ends, write_json, write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
+from nsp.painter.faces import find_faces
 from nsp.painter.images import load_image, long_side, resize
 from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, write_vector_files
@@ -65,6 +66,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     if min(s.steps_per_stroke, s.polish, s.overlap, s.detail_side) < 0:
         raise BadInput(f"schedule.steps_per_stroke={s.steps_per_stroke}, schedule.polish={s.polish}, "
                        f"schedule.overlap={s.overlap}, schedule.detail_side={s.detail_side}: expected ≥ 0")
+    if not 0 <= s.face_share < 1:
+        raise BadInput(f"schedule.face_share={s.face_share}: expected a share of the strokes in [0, 1) (0: faces get no level of their own)")
     if s.growth < 1 or s.crowd < 1 or s.candidates < 1:
         raise BadInput(f"schedule.growth={s.growth}, schedule.crowd={s.crowd}, schedule.candidates={s.candidates}: "
                        "expected ≥ 1 (1: the paper's 1, 2, 3 … levels; a block's share at most crowd × the level's "
@@ -108,7 +111,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
                       growth=s.growth, overlap=s.overlap, split=str(s.split), crowd=s.crowd,
                       steps_per_stroke=s.steps_per_stroke, polish=s.polish, init_size=s.init_size,
-                      candidates=s.candidates, detail_side=s.detail_side,
+                      candidates=s.candidates, detail_side=s.detail_side, face_share=s.face_share,
                       palette=s.palette,
                       background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
     return painter, photo.to(device), style
@@ -158,18 +161,20 @@ def paint(cfg: DictConfig) -> dict:
     shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
     log.info(f"painting {cfg.image} with {counted(cfg.strokes, painter.brush.name + ' stroke')}…")
     phases = []  # what took how long, as the bars showed it
+    faces = find_faces(target) if round(painter.face_share * cfg.strokes) else []
     with SummaryWriter(out / "tensorboard") as writer:
         board = TensorBoard(writer, target)
         with ProgressBar(cfg.strokes, cfg.progress) as bar:
             painter.callbacks += [board, bar]
             try:
-                strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size))
+                strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
             except BaseException:
                 with shielded():
                     write_strokes_and_png(out, painter.strokes(), *shared)
                 raise
         painting = bar.seconds
-        phases.append(f"painted {counted(len(strokes), painter.brush.name + ' stroke')} in {painting:.1f} s")
+        on_faces = f" ({counted(len(faces), 'face')} given a level of its own)" if faces else ""
+        phases.append(f"painted {counted(len(strokes), painter.brush.name + ' stroke')}{on_faces} in {painting:.1f} s")
         if style is not None:
             write_png(out / "style.png", style.image[0])
             try:
@@ -189,7 +194,7 @@ def paint(cfg: DictConfig) -> dict:
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)
     metrics = scores | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
-                        "strokes": len(strokes)}
+                        "strokes": len(strokes), "faces": len(faces)}
     write_json(out / "metrics.json", metrics)
     log.info(f"{', '.join(phases)}: PSNR {scores['psnr']:.2f} dB, SSIM {scores['ssim']:.3f}; {out}")
     return metrics

@@ -62,6 +62,9 @@ class ScheduleConfig:
     # the last level works on a canvas finer than work_size (up to render_size) until its blocks are
     # this many pixels a side: detail many strokes need (a 3000-stroke level has 13-px blocks at 256); 0: never
     detail_side: int = 32
+    # this share of the strokes goes to a level of finer blocks over the faces found (nsp.painter.faces),
+    # painted last: eyes and a mouth at 500 strokes; 0: no face search
+    face_share: float = 0.08
     palette: bool = True  # stroke colours stay within the target's around each stroke
 
 
