@@ -1,6 +1,6 @@
 """Faces in the photo, found by the frontal-face cascade (local binary patterns, trained by OpenCV)
 that ships with scikit-image: offline, nothing downloaded, no weights to fetch. The painter gives
-each face a level of finer blocks of its own (``Painter(faces=…)``): error shared over the whole
+each face a level of finer blocks of its own (``Painter.paint(faces=…)``): error shared over the whole
 picture spends a 500-stroke budget on the flag and the suit, and paints eyes as brown bars."""
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ class Box(NamedTuple):
 def find_faces(image: Tensor) -> list[Box]:
     """The frontal faces in ``image`` (3, H, W) in [0, 1], each box grown by ``MARGIN`` and kept
     within the image; boxes that overlap are merged. Best at a 256-px working size (0.1–0.2 s)."""
-    from skimage.data import lbp_frontal_face_cascade_filename  # scipy comes with it: 0.3 s, only when asked
+    from skimage.data import lbp_frontal_face_cascade_filename  # scipy comes with it: 0.2 s, only when asked
     from skimage.feature._cascade import Cascade
 
     _, height, width = image.shape

@@ -173,7 +173,7 @@ def paint(cfg: DictConfig) -> dict:
                     write_strokes_and_png(out, painter.strokes(), *shared)
                 raise
         painting = bar.seconds
-        on_faces = f" ({counted(len(faces), 'face')} given a level of its own)" if faces else ""
+        on_faces = f" ({counted(len(faces), 'face')} given a level of {'its' if len(faces) == 1 else 'their'} own)" if faces else ""
         phases.append(f"painted {counted(len(strokes), painter.brush.name + ' stroke')}{on_faces} in {painting:.1f} s")
         if style is not None:
             write_png(out / "style.png", style.image[0])
