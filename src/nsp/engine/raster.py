@@ -89,7 +89,7 @@ def boxed_tiles(box: Tensor, height: int, width: int, tile: int, margin: float) 
 def in_box(box: Tensor, row: Tensor, col: Tensor, tile: int, margin: float) -> Tensor:
     """Whether tile (row, col) meets the box (..., 4) grown by ``margin`` px; all broadcast."""
     lo, hi = ((box - margin) / tile).floor(), ((box + margin) / tile).floor()
-    return (col >= lo[..., 0]) & (col <= hi[..., 2]) & (row >= lo[..., 1]) & (row <= hi[..., 3])
+    return ((col >= lo[..., 0]) & (col <= hi[..., 2])) & ((row >= lo[..., 1]) & (row <= hi[..., 3]))  # one full-size &
 
 
 def subtiles(
