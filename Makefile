@@ -33,6 +33,7 @@ test: setup
 bench: setup
 	$(BIN)/python benchmarks/engine.py
 	$(BIN)/python benchmarks/render.py
+	$(BIN)/python benchmarks/threads.py
 	$(BIN)/python benchmarks/transport.py
 	$(BIN)/python benchmarks/training.py
 	$(BIN)/python benchmarks/painter.py --photos astronaut --strokes 500  # the full grid: no options (hours on 2 cores)

@@ -1,5 +1,8 @@
 """The vector engine: batching, resolution independence, range, determinism, soft-mode gradients."""
 import functools
+import os
+import subprocess
+import sys
 
 import pytest
 import torch
@@ -243,3 +246,12 @@ def test_paint_canvas_leaves_the_given_canvas_alone(generator):
     before = canvas.clone()
     painted = paint_canvas(brush, moderate(brush, 20, generator), 16, 16, canvas=canvas)
     assert torch.equal(canvas, before) and not torch.equal(painted, before)
+
+
+@pytest.mark.parametrize("given, expected", [({}, ["PASSIVE", "10000"]), ({"OMP_WAIT_POLICY": "ACTIVE"}, ["ACTIVE", "None"])])
+def test_openmp_threads_spin_briefly_then_sleep_unless_the_user_chose_a_policy(given, expected):
+    env = {key: value for key, value in os.environ.items() if key not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
+    shown = subprocess.run([sys.executable, "-c", "import os, nsp; print(os.environ['OMP_WAIT_POLICY'], "
+                            "os.environ.get('GOMP_SPINCOUNT'))"], env=env | given, capture_output=True, text=True,
+                           check=True).stdout.split()
+    assert shown == expected
