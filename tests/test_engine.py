@@ -146,6 +146,16 @@ def test_composite_equals_stroke_by_stroke_blending(generator):
     assert torch.allclose(composite(fg, alpha, canvas), h, atol=1e-6)
 
 
+def test_composite_gradients_match_finite_differences(generator):
+    """Through opaque pixels (α = 1) too, and onto a background shared by the batch."""
+    fg = torch.rand(2, 4, 3, 5, 5, generator=generator, dtype=torch.float64)
+    alpha = torch.rand(2, 4, 1, 5, 5, generator=generator, dtype=torch.float64)
+    alpha[alpha > 0.7] = 1.0
+    canvas = torch.rand(3, 5, 5, generator=generator, dtype=torch.float64)
+    inputs = tuple(t.requires_grad_() for t in (fg, alpha, canvas))
+    assert torch.autograd.gradcheck(composite, inputs)
+
+
 def test_paint_canvas_keeps_the_aspect_ratio_and_background(generator):
     brush = BRUSHES["tape"]
     x = torch.tensor([[0.25, 0.5, 0.1, 0.1, 0.0, 1.0, 0.0, 0.0]])

@@ -128,14 +128,16 @@ def test_a_face_level_paints_the_small_features_that_the_whole_picture_leaves_ou
     target[:, 12:36, 60:84] = torch.tensor([0.9, 0.7, 0.6])[:, None, None]  # a 24-px "face"
     target[:, 18:22, 64:68] = target[:, 18:22, 76:80] = 0.1  # its 4-px eyes
     target[:, 30:34, 68:76] = torch.tensor([0.6, 0.1, 0.1])[:, None, None]  # and mouth
-    error = {}
-    for faces in ([], [Box(12 / 96, 60 / 96, 24 / 96, 24 / 96)]):
-        p = painter("markerpen", grids=[1, 2], face_share=0.3, steps_per_stroke=6)
-        strokes = p.paint(target, 30, faces=faces)
-        assert len(strokes) == 30
-        canvas = paint_canvas(p.brush, strokes, 96, 96, p.background)
-        error[len(faces)] = float((canvas - target)[:, 12:36, 60:84].abs().mean())
-    assert error[1] < 0.75 * error[0]  # 0.51× at seed 0; seeds 1, 2: 0.66×, 0.46×
+    error = {0: 0.0, 1: 0.0}
+    for seed in range(3):  # one painting's error on the face moves by ±30 % with the seed (float order, too)
+        for faces in ([], [Box(12 / 96, 60 / 96, 24 / 96, 24 / 96)]):
+            p = painter("markerpen", grids=[1, 2], face_share=0.3, steps_per_stroke=6)
+            p.generator.manual_seed(seed)
+            strokes = p.paint(target, 30, faces=faces)
+            assert len(strokes) == 30
+            canvas = paint_canvas(p.brush, strokes, 96, 96, p.background)
+            error[len(faces)] += float((canvas - target)[:, 12:36, 60:84].abs().mean())
+    assert error[1] < 0.75 * error[0]  # 0.56× (seeds 3–5: 0.66×)
 
 
 def test_strokes_are_shared_by_error_exactly_and_never_past_the_cap():
@@ -210,13 +212,18 @@ def test_a_portrait_painted_with_overshooting_steps_gets_no_patch_of_colour_the_
     photo = portrait()
     p = painter("tape", steps_per_stroke=8, renderer=AnalyticRenderer(get_brush("tape"), 0.5, 48))
     p.optimizer = partial(torch.optim.RMSprop, lr=lr)  # steps 5-10x the tests' own: colours overshoot
-    painting = paint_canvas(p.brush, p.paint(photo, 60), 96, 96, "white")
-    patches = torch.nn.functional.avg_pool2d(painting[None], 5, stride=1)[0].flatten(1).T  # a patch, not a stray pixel
-    photo_colours = torch.nn.functional.avg_pool2d(photo[None], 5, stride=1)[0].flatten(1).T  # edges' blends included
-    # every patch has a colour the photo has somewhere, give or take edge blends with the blank canvas.
-    # Measured over lr 0.05/0.1 × generators 0-4: at most 0.18 away with the palette's nearest colours;
-    # up to 0.34 with a per-channel range (green between the beige head and the dark ground); 0.41-0.78 without
-    assert torch.cdist(patches, photo_colours).min(1).values.max() < 0.2
+    strokes = p.paint(photo, 60)
+    patch = partial(torch.nn.functional.avg_pool2d, kernel_size=5, stride=1)  # a patch, not a stray pixel
+    patches = patch(paint_canvas(p.brush, strokes, 96, 96, "white")[None])[0].flatten(1).T
+    photo_colours = patch(photo[None])[0].flatten(1).T  # edges' blends included
+    white = strokes.clone()
+    white[:, [i for i, kind in enumerate(p.brush.kinds) if kind == "color"]] = 1.0
+    painted = patch(paint_canvas(p.brush, white, 96, 96, "black")[None])[0].amin(0).flatten() > 0.99  # paint, no gap
+    assert painted.float().mean() > 0.95  # a steep step may push a stroke off, leaving a gap of canvas (lr 0.1, seed 0: 0.8 %)
+    # every patch of paint has a colour the photo has somewhere. Measured over lr 0.05/0.1 × generators 0-4: at
+    # most 0.17 away with the palette's nearest colours; up to 0.34 with a per-channel range (green between the
+    # beige head and the dark ground); 0.41-0.78 without
+    assert torch.cdist(patches[painted], photo_colours).min(1).values.max() < 0.2
 
 
 def test_stroke_colours_are_clamped_to_the_targets_range_around_them():

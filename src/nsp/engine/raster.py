@@ -153,6 +153,15 @@ def rasterize(
     return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
 
 
+def pixel_lines(stroke: Tensor, tile: Tensor, channels: int, side: int, rows: int, cols: int) -> Tensor:
+    """Where each pair's pixel rows go in a dense image (B, channels, rows·t, cols·t) seen as rows
+    of t = ``side`` floats: (P, channels, t) row indices, for pairs as in :class:`Tiles`."""
+    plane = rows * side * cols  # rows of t floats in one channel
+    lines = ((stroke * channels * rows + torch.div(tile, cols, rounding_mode="floor")) * side * cols + tile % cols)[:, None]
+    lines = lines + torch.arange(side, device=stroke.device) * cols  # (P, t)
+    return lines[:, None] + torch.arange(channels, device=stroke.device)[:, None] * plane
+
+
 def write_tiles(segments: Tensor, stroke: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, rows: int, cols: int) -> None:
     """Copy sparse pairs (as in :class:`Tiles`) into a dense image (B, 4, rows·t, cols·t), in place.
 
@@ -160,12 +169,19 @@ def write_tiles(segments: Tensor, stroke: Tensor, tile: Tensor, fg: Tensor, alph
     rows are copied straight to their places.
     """
     side = segments.shape[1]
-    plane = rows * side * cols  # segments of one channel
-    lines = ((stroke * 4 * rows + torch.div(tile, cols, rounding_mode="floor")) * side * cols + tile % cols)[:, None]
-    lines = lines + torch.arange(side, device=segments.device) * cols  # (P, t)
-    fg_lines = lines[:, None] + torch.arange(3, device=segments.device)[:, None] * plane  # (P, 3, t)
-    segments.index_copy_(0, fg_lines.flatten(), fg.reshape(-1, side))
-    segments.index_copy_(0, (lines + 3 * plane).flatten(), alpha.reshape(-1, side))
+    lines = pixel_lines(stroke, tile, 4, side, rows, cols)  # (P, 4, t)
+    segments.index_copy_(0, lines[:, :3].flatten(), fg.reshape(-1, side))
+    segments.index_copy_(0, lines[:, 3].flatten(), alpha.reshape(-1, side))
+
+
+def dense(values: Tensor, stroke: Tensor, tile: Tensor, strokes: int, rows: int, cols: int) -> Tensor:
+    """Sparse pairs' pixels ``values`` (P, C, t²) as a new dense image (strokes, C, rows·t, cols·t),
+    out of place: its gradient is the pairs' pixels of the image's, where an in-place copy into
+    zeros would have autograd copy the whole image's gradient first."""
+    channels, side = values.shape[1], math.isqrt(values.shape[2])
+    lines = pixel_lines(stroke, tile, channels, side, rows, cols).flatten()
+    image = values.new_zeros(strokes * channels * rows * side * cols, side).index_copy(0, lines, values.reshape(-1, side))
+    return image.view(strokes, channels, rows * side, cols * side)
 
 
 def render(
@@ -198,6 +214,10 @@ def render(
     width = height if width is None else width
     tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile)
     rows, cols, n = tiles.rows, tiles.cols, len(x)
+    if out is None and (tiles.fg.requires_grad or tiles.alpha.requires_grad):  # differentiated: the soft mode
+        fg, alpha = (dense(v, tiles.stroke, tiles.tile, n, rows, cols)[..., :height, :width]
+                     for v in (tiles.fg, tiles.alpha[:, None]))
+        return fg, alpha
     whole = rows * tile == height and cols * tile == width
     image = clear(out) if whole and out is not None else x.new_zeros(n, 4, rows * tile, cols * tile)
     write_tiles(image.view(-1, tile), tiles.stroke, tiles.tile, tiles.fg, tiles.alpha, rows, cols)
@@ -222,22 +242,49 @@ def clear(image: Tensor) -> Tensor:
 
 
 def composite(fg: Tensor, alpha: Tensor, canvas: Tensor) -> Tensor:
-    """Soft blending h ← α·s + (1 − α)·h over an ordered stroke list, in closed form.
+    """Soft blending h_i = α_i·s_i + (1 − α_i)·h_{i−1} over an ordered stroke list.
 
     Args:
-        fg: (..., N, 3, H, W) stroke foregrounds, first stroke painted first.
+        fg: (..., N, 3, H, W) stroke foregrounds s_i, first stroke painted first.
         alpha: (..., N, 1, H, W).
-        canvas: (..., 3, H, W) the background h_0.
+        canvas: (..., 3, H, W) the background h_0 (it may broadcast against fg's leading dims).
 
     Returns:
-        (..., 3, H, W): h_N = Π(1−α_j)·h_0 + Σ_i α_i·s_i·Π_{j>i}(1−α_j).
+        (..., 3, H, W): h_N. Differentiable in all three (:class:`Blend`).
     """
-    keep = 1 - alpha
-    # later[i] = Π_{j>i} (1 − α_j): what survives of stroke i under the strokes painted after it.
-    later = torch.cat([keep[..., 1:, :, :, :], torch.ones_like(keep[..., :1, :, :, :])], -4)
-    later = later.flip(-4).cumprod(-4).flip(-4)
-    everything = later[..., :1, :, :, :] * keep[..., :1, :, :, :]
-    return (alpha * fg * later).sum(-4) + everything[..., 0, :, :, :] * canvas
+    return Blend.apply(fg, alpha, canvas)
+
+
+class Blend(torch.autograd.Function):
+    """:func:`composite`, one lerp a stroke, with its gradients written out: autograd through the
+    closed form h_N = Π(1−α_j)·h_0 + Σ α_i·s_i·Π_{j>i}(1−α_j) differentiates a cumulative product
+    with zeros in it (opaque pixels), 4–5× the time of these N steps, forward and backward."""
+
+    @staticmethod
+    def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor) -> Tensor:
+        ctx.save_for_backward(fg, alpha, canvas)
+        h = canvas
+        for i in range(fg.shape[-4]):
+            h = torch.lerp(h, fg[..., i, :, :, :], alpha[..., i, :, :, :])
+        return h
+
+    @staticmethod
+    def backward(ctx, grad: Tensor) -> tuple[Tensor, Tensor, Tensor | None]:
+        """With g_i = ∂L/∂h_i: ∂L/∂s_i = g_i·α_i, ∂L/∂α_i = Σ_channels g_i·(s_i − h_{i−1}),
+        g_{i−1} = g_i·(1 − α_i); the states h_{i−1} are blended again, not kept from forward."""
+        fg, alpha, canvas = ctx.saved_tensors
+        before = [canvas]  # h_0 … h_{N−1}
+        for i in range(fg.shape[-4] - 1):
+            before.append(torch.lerp(before[-1], fg[..., i, :, :, :], alpha[..., i, :, :, :]))
+        grad_fg, grad_alpha = torch.empty_like(fg), torch.empty_like(alpha)
+        for i in reversed(range(fg.shape[-4])):
+            a = alpha[..., i, :, :, :]
+            torch.mul(grad, a, out=grad_fg[..., i, :, :, :])
+            torch.sum(grad * (fg[..., i, :, :, :] - before[i]), -3, keepdim=True, out=grad_alpha[..., i, :, :, :])
+            grad = grad * (1 - a)
+        if not ctx.needs_input_grad[2]:
+            return grad_fg, grad_alpha, None
+        return grad_fg, grad_alpha, grad.sum_to_size(canvas.shape)
 
 
 def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
