@@ -161,12 +161,12 @@ def paint(cfg: DictConfig) -> dict:
     shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
     log.info(f"painting {cfg.image} with {counted(cfg.strokes, painter.brush.name + ' stroke')}…")
     phases = []  # what took how long, as the bars showed it
-    faces = find_faces(target) if round(painter.face_share * cfg.strokes) else []
     with SummaryWriter(out / "tensorboard") as writer:
         board = TensorBoard(writer, target)
-        with ProgressBar(cfg.strokes, cfg.progress) as bar:
+        with ProgressBar(cfg.strokes, cfg.progress) as bar:  # the painting's time: its face search too
             painter.callbacks += [board, bar]
             try:
+                faces = find_faces(target) if round(painter.face_share * cfg.strokes) else []
                 strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
             except BaseException:
                 with shielded():
