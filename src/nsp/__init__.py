@@ -2,9 +2,9 @@
 import os
 
 # torch's OpenMP threads spin while they wait for each other: with another program busy on one of
-# two cores, every parallel op then waits out a time slice, 10-30x slower (a 1000-stroke render:
-# 40 s instead of 1.5 s). Sleeping at once instead costs each small op a wake-up: twice the time of
-# an idle machine's renders. So they spin 10,000 turns (tens of microseconds; libgomp, torch's on
+# two cores, every parallel op then waits out a time slice (a 1000-stroke render: 20-32 s instead of
+# 1.5 s on one 2-core host, 2x on another). Sleeping at once instead costs each small op a wake-up:
+# up to twice the time of an idle machine's renders. So they spin 10,000 turns (tens of microseconds; libgomp, torch's on
 # Linux), then sleep (docs/benchmarks.md, "Speed on the paths a user takes"). Set before torch loads,
 # unless the user set a policy.
 if "OMP_WAIT_POLICY" not in os.environ:
