@@ -111,10 +111,10 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
             style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
             paintings = {"plain": plain}
             for mode in modes:
-                styled = stylize(brush, strokes, photo, loss, style, instantiate(cfg.optimizer),
-                                 weight=cfg.style.weight, steps=cfg.style.steps, mode=mode,
-                                 background=cfg.background, softness=cfg.renderer.softness)
-                paintings[mode] = paint_canvas(brush, styled, height, width, cfg.background)
+                styled, canvas = stylize(brush, strokes, photo, loss, style, instantiate(cfg.optimizer),
+                                         weight=cfg.style.weight, steps=cfg.style.steps, mode=mode,
+                                         background=cfg.background, softness=cfg.renderer.softness)
+                paintings[mode] = paint_canvas(brush, styled, height, width, canvas)
             base = measure(plain, plain, photo, image, style)
             for mode, painting in paintings.items():
                 row = measure(painting, plain, photo, image, style)

@@ -127,9 +127,9 @@ def settings(cfg: DictConfig) -> dict[str, str | int | float]:
 
 
 def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo: torch.Tensor, style: StyleLoss,
-                writer: SummaryWriter) -> tuple[torch.Tensor, float]:
+                writer: SummaryWriter) -> tuple[torch.Tensor, str, float]:
     """The style steps on the painted ``strokes`` (N, d); logs ``style/*`` curves; returns new
-    strokes and the seconds they took."""
+    strokes, the canvas colour recoloured with them, and the seconds they took."""
     steps = cfg.style.steps if cfg.style.mode == "full" else 0  # colour mode is one recolouring, no steps
     with ProgressBar(steps, cfg.progress, "style steps") as bar:
         def log_step(step: int, losses: dict[str, float]) -> None:
@@ -137,11 +137,11 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
                 writer.add_scalar(f"style/{name}", value, step)
             bar.advance(1, f"style {losses['style']:.3f}")
 
-        strokes = stylize(painter.brush, strokes, resize(photo, cfg.style.size), painter.loss, style,
+        strokes, background = stylize(painter.brush, strokes, resize(photo, cfg.style.size), painter.loss, style,
                           instantiate(cfg.optimizer), weight=cfg.style.weight, steps=cfg.style.steps,
                           mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness,
                           callbacks=[log_step])
-    return strokes, bar.seconds
+    return strokes, background, bar.seconds
 
 
 def paint(cfg: DictConfig) -> dict:
@@ -178,11 +178,12 @@ def paint(cfg: DictConfig) -> dict:
         if style is not None:
             write_png(out / "style.png", style.image[0])
             try:
-                strokes, seconds = paint_style(cfg, painter, strokes, photo, style, writer)
+                strokes, background, seconds = paint_style(cfg, painter, strokes, photo, style, writer)
             except BaseException:
                 with shielded():
                     write_strokes_and_png(out, strokes, *shared)  # the unstyled painting
                 raise
+            shared = (*shared[:2], background, shared[3])  # the canvas recoloured with the strokes
             phases.append(f"styled in {seconds:.1f} s")
         frames = len(frame_ends(len(strokes), cfg.animation_frames))
         log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")

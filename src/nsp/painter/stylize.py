@@ -1,7 +1,9 @@
 """Style transfer on strokes (paper §3.5), after the content painting.
 
 Both modes first recolour the painting toward the style image with one map shared by every stroke
-(:class:`nsp.style.Recoloring`), so colours that were alike stay alike. Its chroma goes to the
+and by the canvas colour (:class:`nsp.style.Recoloring`), so colours that were alike stay alike: a
+pixel where a translucent stroke shows the canvas is recoloured as one where an opaque stroke shows
+a colour alike. Its chroma goes to the
 style's; its lightness moves toward the style's as far as the luminance structure allows
 (:func:`recolor`): the painting keeps at least 1 − β_sty/5 of its luminance SSIM to the photo.
 
@@ -23,7 +25,8 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.engine import paint_canvas
+from nsp.brushes.svg import hex_color
+from nsp.engine import paint_canvas, parse_color
 from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
 from nsp.style.measures import luminance_ssim
@@ -45,24 +48,25 @@ def stylize(
     steps: int = 200,
     mode: str = "full",
     background: str = "white",
-    softness: float = 0.5,
+    softness: float = 0.25,
     callbacks: Sequence[Callable[[int, dict[str, float]], None]] = (),
-) -> Tensor:
+) -> tuple[Tensor, str]:
     """Restyle ``strokes`` (N, d), a painting of ``target`` (3, H, W), in the style of ``style.image``.
 
     The canvas is the vector engine at the target's size. ``content(canvas, target)`` returns the
     painter's terms with their weighted ``total``; ``style(canvas)`` the style loss. ``weight`` is
     β_sty: how far the lightness follows the style's, and in full mode the style loss's weight in
     the ``steps`` optimizer steps (colour mode takes none).
-    Returns the stylized strokes (N, d) in [0, 1]; each callback gets (step, losses) after each step.
+    Returns the stylized strokes (N, d) in [0, 1] and the canvas colour ``background`` recoloured
+    by the same map (``#rrggbb``); each callback gets (step, losses) after each step.
     """
     if mode not in MODES:
         raise ValueError(f"style.mode={mode}: expected one of {', '.join(MODES)}")
     _, height, width = target.shape
     recoloring = recolor(brush, strokes, target, style.image[0], weight, background)
-    x = recoloring.strokes(brush, strokes)
+    x, background = recoloring.strokes(brush, strokes), canvas_color(recoloring, background)
     if mode == "color":
-        return x
+        return x, background
     target = recoloring(target, dim=0)[None]  # the photo in the style's colours
     x.requires_grad_(True)
     opt = optimizer([x])
@@ -81,7 +85,15 @@ def stylize(
             callback(step, losses)
     with torch.no_grad():
         painting = paint_canvas(brush, x, height, width, background)
-    return Recoloring.fit(painting, style.image[0], 0.0).strokes(brush, x)  # weight 0: lightness as optimized
+    chroma = Recoloring.fit(painting, style.image[0], 0.0)  # step 0: the lightness as optimized
+    return chroma.strokes(brush, x), canvas_color(chroma, background)
+
+
+def canvas_color(recoloring: Recoloring, background: str) -> str:
+    """The canvas colour ``background`` (as :func:`~nsp.engine.parse_color` reads it) through
+    ``recoloring``, as ``#rrggbb``: where translucent strokes show the canvas, it is one of the
+    painting's colours."""
+    return hex_color(recoloring(torch.tensor(parse_color(background))))
 
 
 def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight: float,
@@ -108,7 +120,8 @@ def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight
         floor = (1 - STRUCTURE * weight) * luminance_ssim(painting, target)
         for step in range(1, STEPS + 1):
             recoloring = Recoloring.fit(painting, style, step / STEPS)
-            canvas = paint_canvas(brush, recoloring.strokes(brush, strokes), height, width, background)
+            canvas = paint_canvas(brush, recoloring.strokes(brush, strokes), height, width,
+                                  canvas_color(recoloring, background))
             if luminance_ssim(canvas, target) < floor:
                 break
             chosen = recoloring
