@@ -26,7 +26,7 @@ class AnalyticRenderer:
         block_size: the largest block side rendered; bigger blocks are optimized downsampled.
     """
 
-    def __init__(self, brush: Brush, softness: float = 0.5, block_size: int = 64):
+    def __init__(self, brush: Brush, softness: float = 0.25, block_size: int = 64):
         self.brush, self.softness, self.block_size = brush, softness, block_size
 
     def resolution(self, side: int) -> int:
