@@ -24,12 +24,14 @@ class Watercolor(Brush):
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         pts = bezier.control_points(x, pix.height, pix.width)
         r0, r2 = x[:, 6:7] * pix.width / 4, x[:, 7:8] * pix.width / 4  # radii in pixels
-        t, later = swept_discs(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, (r2 - r0)[:, 0])
+        t, rows, later = swept_discs(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, (r2 - r0)[:, 0])
         cov = coverage(self._disc_distance(pts, t, r0, r2, pix))
-        over = coverage(self._disc_distance(pts, later, r0, r2, pix))  # the later pass, drawn on top
         c0, c2 = x[:, 8:11, None], x[:, 11:14, None]
         color = c0 + (c2 - c0) * t[:, None]
-        color = color + over[:, None] * (c2 - c0) * (later - t)[:, None]
+        # the later pass of the strokes that curl over a pixel, drawn on top
+        curled = Pixels(pix.px.expand_as(t)[rows], pix.py.expand_as(t)[rows], pix.height, pix.width)
+        over = coverage(self._disc_distance(pts[rows], later, r0[rows], r2[rows], curled))
+        color = color.index_add(0, rows, over[:, None] * (c2 - c0)[rows] * (later - t[rows])[:, None])
         fg = color * (cov > 0)[:, None]
         return fg, x[:, 14:15] * cov
 
