@@ -37,6 +37,7 @@ class Brush:
         shape, color: indices of the shape and colour parameters.
         alpha: index of the transparency parameter, or ``None`` where A ≡ 1.
         reference: columns of the reference implementation's ``x_ctt`` and ``x_color`` arrays.
+        softness: the soft edge's width (pixels) the painter optimizes this brush's strokes with.
     """
 
     name: str
@@ -49,6 +50,9 @@ class Brush:
     options: dict = field(default_factory=dict)
     texture_path: str | None = None  # the image of an oil brush's bristle texture; None: nsp's own
     reference: tuple[int, int] = (0, 0)
+    # astronaut, 500 strokes, seeds 0–2 (docs/benchmarks.md): 0.25 over 0.5 +0.14 to +0.26 dB for the
+    # translucent and thin brushes; oil's whole image −0.18 dB (its face +0.8), so oil keeps 0.5
+    softness: float = 0.25
 
     @property
     def d(self) -> int:

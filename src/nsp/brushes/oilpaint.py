@@ -100,4 +100,5 @@ OILPAINT = OilPaint(
     alpha=None,
     description="opaque rotated rectangle with a bristle texture; colour blends head to tail",
     reference=(5, 6),
+    softness=0.5,
 )

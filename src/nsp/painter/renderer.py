@@ -23,11 +23,13 @@ class AnalyticRenderer:
     Args:
         brush: the brush.
         softness: edge width in block pixels; wider edges reach further but blur the optimum.
+            None: the brush's own.
         block_size: the largest block side rendered; bigger blocks are optimized downsampled.
     """
 
-    def __init__(self, brush: Brush, softness: float = 0.25, block_size: int = 64):
-        self.brush, self.softness, self.block_size = brush, softness, block_size
+    def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64):
+        self.brush, self.block_size = brush, block_size
+        self.softness = brush.softness if softness is None else softness
 
     def resolution(self, side: int) -> int:
         """Pixels per side a block of ``side`` canvas pixels is optimized at."""

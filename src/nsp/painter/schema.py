@@ -26,7 +26,7 @@ class RendererConfig:
     """``renderer=analytic`` (the soft vector engine) or ``renderer=neural`` (an ``nsp.train`` checkpoint)."""
 
     name: RendererName = RendererName.analytic
-    softness: float = 0.25  # analytic: edge width in block pixels (0.5: astronaut, 500 strokes, 0.1–0.3 dB worse on every brush, and slower)
+    softness: Optional[float] = None  # analytic: edge width in block pixels; None: the brush's own (Brush.softness)
     block_size: int = 64  # analytic: blocks are optimized at most this many pixels wide
     checkpoint: Optional[str] = None  # neural: path of the checkpoint (required)
 

@@ -48,7 +48,7 @@ def stylize(
     steps: int = 200,
     mode: str = "full",
     background: str = "white",
-    softness: float = 0.25,
+    softness: float | None = None,
     callbacks: Sequence[Callable[[int, dict[str, float]], None]] = (),
 ) -> tuple[Tensor, str]:
     """Restyle ``strokes`` (N, d), a painting of ``target`` (3, H, W), in the style of ``style.image``.
@@ -56,7 +56,8 @@ def stylize(
     The canvas is the vector engine at the target's size. ``content(canvas, target)`` returns the
     painter's terms with their weighted ``total``; ``style(canvas)`` the style loss. ``weight`` is
     β_sty: how far the lightness follows the style's, and in full mode the style loss's weight in
-    the ``steps`` optimizer steps (colour mode takes none).
+    the ``steps`` optimizer steps (colour mode takes none), on soft edges ``softness`` px wide
+    (None: the brush's own).
     Returns the stylized strokes (N, d) in [0, 1] and the canvas colour ``background`` recoloured
     by the same map (``#rrggbb``); each callback gets (step, losses) after each step.
     """
@@ -74,7 +75,8 @@ def stylize(
         opt.corrected = True
 
     def objective() -> tuple[Tensor, dict[str, Tensor]]:
-        canvas = paint_canvas(brush, x, height, width, background, softness=softness)[None]
+        edge = brush.softness if softness is None else softness
+        canvas = paint_canvas(brush, x, height, width, background, softness=edge)[None]
         losses = content(canvas, target)
         losses["style"] = style(canvas)
         losses["total"] = losses["total"] + weight * losses["style"]
