@@ -200,6 +200,8 @@ def test_paint_with_a_style_image_writes_style_png(tmp_path):
     assert result.returncode == 0, result.stderr
     assert PIL.Image.open(tmp_path / "run" / "style.png").size == (32, 21)  # coffee is 600×400
     assert (tmp_path / "run" / "final.png").exists()
+    canvas = json.loads((tmp_path / "run" / "strokes.json").read_text())["canvas"]["background"]
+    assert canvas.startswith("#") and canvas != "#ffffff"  # the white canvas recoloured with the strokes
 
 
 def test_missing_vgg_weights_is_one_clear_error(tmp_path):

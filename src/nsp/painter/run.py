@@ -138,9 +138,9 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
             bar.advance(1, f"style {losses['style']:.3f}")
 
         strokes, background = stylize(painter.brush, strokes, resize(photo, cfg.style.size), painter.loss, style,
-                          instantiate(cfg.optimizer), weight=cfg.style.weight, steps=cfg.style.steps,
-                          mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness,
-                          callbacks=[log_step])
+                                      instantiate(cfg.optimizer), weight=cfg.style.weight, steps=cfg.style.steps,
+                                      mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness,
+                                      callbacks=[log_step])
     return strokes, background, bar.seconds
 
 
