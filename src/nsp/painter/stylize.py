@@ -73,9 +73,9 @@ def stylize(
     opt = optimizer([x])
     if isinstance(opt, RMSprop):  # on a finished painting, uncorrected first steps would scatter every stroke
         opt.corrected = True
+    edge = brush.softness if softness is None else softness
 
     def objective() -> tuple[Tensor, dict[str, Tensor]]:
-        edge = brush.softness if softness is None else softness
         canvas = paint_canvas(brush, x, height, width, background, softness=edge)[None]
         losses = content(canvas, target)
         losses["style"] = style(canvas)
