@@ -26,7 +26,7 @@ from nsp.style import (
 )
 from nsp.style.color import lab_to_rgb, rgb_to_lab
 from nsp.style.measures import HELD_OUT_SEED, coherence, color_distance, luminance_ssim, texture_distance
-from nsp.style.recolor import STRETCH, gaussian_transport
+from nsp.style.recolor import KNOTS, STRETCH, gaussian_transport
 
 S = 48  # canvas side in pixels: small, so optimization tests stay fast on a CPU
 
@@ -186,49 +186,78 @@ def test_gaussian_transport_carries_one_covariance_onto_the_other():
     torch.testing.assert_close(matrix @ source @ matrix, target)
 
 
-def test_recoloring_moves_chroma_to_the_style_and_lightness_by_the_step(astronaut):
+def test_the_start_carries_chroma_to_the_style_and_keeps_the_lightness(astronaut):
     style = texture(data.brick(), tint=(0.9, 0.6, 0.3))[0]
-    lab_p, lab_s = (rgb_to_lab(x.flatten(1), dim=0) for x in (astronaut, style))
-    for step in (0.0, 0.5, 1.0):
-        recoloring = Recoloring.fit(astronaut, style, step)
-        assert recoloring.step == step
-        assert recoloring.matrix[0, 1:].abs().max() == 0 and recoloring.matrix[1:, 0].abs().max() == 0  # L alone
-        lightness = recoloring.mean_out[0] - recoloring.mean_in[0]
-        assert lightness.item() == pytest.approx(step * (lab_s[0].mean() - lab_p[0].mean()).item(), abs=1e-5)
-        torch.testing.assert_close(recoloring.mean_out[1:], lab_s[1:].mean(1), atol=1e-5, rtol=0)
-        assert torch.linalg.eigvalsh(recoloring.matrix[1:, 1:]).max() <= STRETCH + 1e-6
-        assert 0 < recoloring.matrix[0, 0] <= STRETCH  # increasing in L: tones keep their order
-    whole = Recoloring.fit(astronaut, style, 1.0)  # step 1: the style's spread of lightness
-    assert whole.matrix[0, 0].item() == pytest.approx((lab_s[0].std() / lab_p[0].std()).item(), rel=1e-3)
-    kept = Recoloring.fit(astronaut, style, 0.0)(astronaut, dim=0)  # step 0: the lightness stays,
-    change = (rgb_to_lab(kept, dim=0)[0] - lab_p[0].reshape(S, S)).abs()
+    lab_s = rgb_to_lab(style.flatten(1), dim=0)
+    start = Recoloring.fit(astronaut, style)
+    torch.testing.assert_close(start.mean_out, lab_s[1:].mean(1), atol=1e-5, rtol=0)
+    assert torch.linalg.eigvalsh(start.matrix).max() <= STRETCH + 1e-6 and start.hue.abs().max() == 0
+    torch.testing.assert_close(start.lightness, torch.linspace(0, 1, KNOTS + 1))  # f: the identity
+    out = rgb_to_lab(start(astronaut, dim=0), dim=0)
+    change = (out[0] - rgb_to_lab(astronaut, dim=0)[0]).abs()
     assert change.median() < 1e-5 and change.max() < 0.05  # but where sRGB lacks the new chroma, clamping moves it
-    for step in (-0.1, 1.5):
-        with pytest.raises(ValueError, match="lightness step"):
-            Recoloring.fit(astronaut, style, step)
+    recoloured = start.lab(rgb_to_lab(astronaut.flatten(1), dim=0).T)  # before clamping to sRGB
+    torch.testing.assert_close(recoloured[:, 1:].mean(0), lab_s[1:].mean(1), atol=1e-4, rtol=0)  # the style's mean hue
 
 
-def test_recoloring_toward_its_own_colours_changes_nothing(astronaut):
-    recoloring = Recoloring.fit(astronaut, astronaut, 1.0)
-    torch.testing.assert_close(recoloring(astronaut, dim=0), astronaut, atol=1e-2, rtol=0)  # up to EPS
+def test_the_start_toward_its_own_colours_changes_nothing(astronaut):
+    start = Recoloring.fit(astronaut, astronaut)
+    torch.testing.assert_close(start(astronaut, dim=0), astronaut, atol=1e-2, rtol=0)  # up to EPS
 
 
-def test_recoloring_keeps_alike_colours_alike(astronaut):
-    # a drab painting toward a vivid style, all the way: the map stretches L*a*b* differences at most
-    # STRETCH×, so colours alike before stay alike after
+def test_the_start_keeps_alike_colours_alike(astronaut):
+    # a drab painting toward a vivid style: the map stretches chroma differences at most STRETCH×
     drab = 0.5 + 0.1 * (astronaut - 0.5)
     vivid = (texture(data.brick(), tint=(1.0, 0.2, 0.1)) + texture(data.grass(), tint=(0.0, 0.8, 0.0)))[0]
-    recoloring = Recoloring.fit(drab, vivid.clamp(0, 1), 1.0)
-    assert torch.linalg.matrix_norm(recoloring.matrix, ord=2) <= STRETCH + 1e-6
-    assert coherence(drab, recoloring(drab, dim=0)) <= 0.05
-    assert color_distance(recoloring(drab, dim=0), vivid) < 0.5 * color_distance(drab, vivid)
+    start = Recoloring.fit(drab, vivid.clamp(0, 1))
+    assert torch.linalg.matrix_norm(start.matrix, ord=2) <= STRETCH + 1e-6
+    assert coherence(drab, start(drab, dim=0)) <= 0.05
+    assert color_distance(start(drab, dim=0), vivid) < 0.5 * color_distance(drab, vivid)
+
+
+@pytest.fixture(scope="module")
+def grey_to_colour(astronaut):
+    """A grey photo (the astronaut's lightness), a style whose hue follows its tones (dark blue,
+    light orange), the start and the map refined under a floor and a bound."""
+    grey = astronaut.mean(0, keepdim=True).expand(3, -1, -1).contiguous()
+    tones = texture(data.gravel())[0, 0]
+    style = torch.stack([tones, 0.4 + 0.2 * tones, 1 - tones]) * torch.stack([tones, tones.sqrt(), 0.5 * tones])
+    style = (style / style.amax(dim=(1, 2), keepdim=True)).clamp(0, 1)
+    start = Recoloring.fit(grey, style)
+    floor = 0.9 * luminance_ssim(grey, grey)
+    return grey, style, start, floor, start.refine(grey, grey, style, floor, 0.045)
+
+
+def test_refining_takes_the_style_s_colours_further_within_both_bounds(grey_to_colour):
+    grey, style, start, floor, refined = grey_to_colour
+    before, after = (color_distance(m(grey, dim=0), style) for m in (start, refined))
+    assert after < 0.6 * before  # the start gives a grey photo one hue; the style's vary with tone
+    assert luminance_ssim(refined(grey, dim=0), grey) >= floor
+    assert coherence(grey, refined(grey, dim=0)) <= 0.045
+
+
+def test_refining_keeps_tones_in_order_and_their_steps_bounded(grey_to_colour):
+    *_, refined = grey_to_colour
+    steps = refined.lightness.diff() * KNOTS  # f's slope on each piece
+    assert steps.min() > 0 and steps.max() <= STRETCH + 1e-5
+    greys = torch.stack([torch.linspace(0, 1, 101), torch.zeros(101), torch.zeros(101)], 1)  # L*a*b* / 100
+    assert refined.lab(greys)[:, 0].diff().min() > 0  # a darker tone stays darker: edges stay edges
+
+
+def test_a_share_of_the_way_blends_two_maps(grey_to_colour):
+    grey, _, start, _, refined = grey_to_colour
+    assert start.toward(refined, 0).lightness.equal(start.lightness)
+    assert start.toward(refined, 1).hue.equal(refined.hue)
+    half = start.toward(refined, 0.5)
+    colours = rgb_to_lab(grey.flatten(1), dim=0).T
+    torch.testing.assert_close(half.lab(colours), (start.lab(colours) + refined.lab(colours)) / 2)
 
 
 @pytest.mark.parametrize("name", ["tape", "watercolor"])
 def test_recoloring_strokes_changes_colours_alone(astronaut, name):
     brush = get_brush(name)
     strokes = brush.sample(16, torch.Generator().manual_seed(0))
-    recoloring = Recoloring.fit(astronaut, texture(data.gravel())[0], 0.5)
+    recoloring = Recoloring.fit(astronaut, texture(data.gravel())[0])
     out = recoloring.strokes(brush, strokes)
     color = list(brush.color)
     others = [i for i in range(brush.d) if i not in color]

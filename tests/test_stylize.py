@@ -22,7 +22,7 @@ from nsp.painter.losses import PaintLoss
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer
 from nsp.painter.schema import LossConfig
-from nsp.painter.stylize import STEPS, STRUCTURE, canvas_color, recolor, stylize
+from nsp.painter.stylize import COHERENT, STRUCTURE, canvas_color, recolor, stylize
 from nsp.style import Recoloring, StyleLoss
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
 
@@ -95,7 +95,8 @@ def test_color_mode_is_one_coherent_recolouring(scene, color_mode):
 
 def test_color_mode_recolours_the_canvas_a_translucent_stroke_shows(scene):
     # A half-transparent blue stroke over white and an opaque stroke of the colour that shows
-    # (0.6, 0.7, 0.9): alike before, so alike after; with the canvas left white they part by 0.46.
+    # (0.6, 0.7, 0.9): alike before, near after. With the canvas left white they part by 0.46; with
+    # it recoloured too, only by as much as the map bends between the blue and the canvas (0.09).
     brush, style = get_brush("watercolor"), scene[3]
     line = [0.2, 0.3, 0.5, 0.3, 0.8, 0.3, 0.3, 0.3]  # x0, y0, x1, y1, x2, y2, r0, r2
     x = torch.tensor([line + [0.2, 0.4, 0.8] * 2 + [0.5], line + [0.6, 0.7, 0.9] * 2 + [1.0]])
@@ -104,8 +105,8 @@ def test_color_mode_recolours_the_canvas_a_translucent_stroke_shows(scene):
     assert torch.allclose(plain[:, 14, 24], plain[:, 33, 24], atol=1e-6)
     y, canvas = stylize(brush, x, plain, PaintLoss.from_config(LossConfig()), StyleLoss(style, "random"),
                         partial(torch.optim.RMSprop, lr=0.01), mode="color")
-    styled = draw(brush, y, canvas)
-    assert canvas != "#ffffff" and (styled[:, 14, 24] - styled[:, 33, 24]).norm() < 0.05
+    apart = [(image[:, 14, 24] - image[:, 33, 24]).norm() for image in (draw(brush, y, canvas), draw(brush, y))]
+    assert canvas != "#ffffff" and apart[0] < 0.25 * apart[1]
 
 
 def test_color_mode_keeps_the_luminance_structure(scene, color_mode):
@@ -114,24 +115,23 @@ def test_color_mode_keeps_the_luminance_structure(scene, color_mode):
     assert luminance_ssim(styled, target) >= 0.9 * luminance_ssim(plain, target)
 
 
-def test_the_lightness_moves_as_far_as_the_luminance_structure_allows(scene):
+def test_the_recolouring_goes_as_far_as_structure_and_coherence_allow(scene):
     brush, strokes, target, style = scene
-    plain = luminance_ssim(draw(brush, strokes), target)
+    painting = draw(brush, strokes)
+    plain = luminance_ssim(painting, target)
 
-    def structure(recoloring):
-        return luminance_ssim(draw(brush, recoloring.strokes(brush, strokes), canvas_color(recoloring, "white")), target)
+    def painted(recoloring):
+        return draw(brush, recoloring.strokes(brush, strokes), canvas_color(recoloring, "white"))
 
-    assert recolor(brush, strokes, target, style[0], 0.0).step == 0  # β 0 keeps the lightness
-    steps = []
+    kept = recolor(brush, strokes, target, style[0], 0.0)  # β 0 keeps the lightness: the start alone
+    assert kept.lightness.equal(Recoloring.fit(painting, style[0]).lightness) and kept.hue.abs().max() == 0
+    distance = []
     for weight in (0.25, 0.5, 1.0):
-        recoloring = recolor(brush, strokes, target, style[0], weight)
-        floor = (1 - STRUCTURE * weight) * plain
-        assert structure(recoloring) >= floor
-        if recoloring.step < 1:  # one step further would lose more structure than β allows
-            painting = draw(brush, strokes)
-            assert structure(Recoloring.fit(painting, style[0], recoloring.step + 1 / STEPS)) < floor
-        steps.append(recoloring.step)
-    assert steps == sorted(steps) and steps[-1] > 0
+        canvas = painted(recolor(brush, strokes, target, style[0], weight))
+        assert luminance_ssim(canvas, target) >= (1 - STRUCTURE * weight) * plain  # checked on the strokes
+        assert coherence(painting, canvas, seed=1) <= COHERENT
+        distance.append(color_distance(canvas, style[0]))
+    assert distance[2] < distance[0] < color_distance(painted(kept), style[0])
 
 
 def test_full_mode_moves_the_texture_toward_the_style_on_a_held_out_network(scene, color_mode):

@@ -3,9 +3,9 @@
 Both modes first recolour the painting toward the style image with one map shared by every stroke
 and by the canvas colour (:class:`nsp.style.Recoloring`), so colours that were alike stay alike: a
 pixel where a translucent stroke shows the canvas is recoloured as one where an opaque stroke shows
-a colour alike. Its chroma goes to the
-style's; its lightness moves toward the style's as far as the luminance structure allows
-(:func:`recolor`): the painting keeps at least 1 − β_sty/5 of its luminance SSIM to the photo.
+a colour alike. The map is fitted to the style's colours as far as the luminance structure
+and coherence allow (:func:`recolor`): the painting keeps at least 1 − β_sty/5 of its luminance
+SSIM to the photo, and colours alike in it stay within :data:`COHERENT` of each other.
 
 - ``mode="color"`` stops there: only colour parameters change, shape parameters stay bit for bit,
   and the lightness keeps the photo's structure.
@@ -29,11 +29,12 @@ from nsp.brushes.svg import hex_color
 from nsp.engine import paint_canvas, parse_color
 from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
-from nsp.style.measures import luminance_ssim
+from nsp.style.measures import coherence, luminance_ssim
 
 MODES = ("full", "color")
 STRUCTURE = 0.2  # the share of luminance SSIM the recolouring may give up, per unit of β_sty
-STEPS = 20  # the lightness steps tried: 1/STEPS, 2/STEPS, …, 1
+STEPS = 10  # the shares of the refined map tried, back toward the start: 1, 1 − 1/STEPS, …, 1/STEPS
+COHERENT = 0.045  # the most colours alike in the painting may part on average (RGB): nsp.style.measures.coherence
 
 
 def stylize(
@@ -87,7 +88,7 @@ def stylize(
             callback(step, losses)
     with torch.no_grad():
         painting = paint_canvas(brush, x, height, width, background)
-    chroma = Recoloring.fit(painting, style.image[0], 0.0)  # step 0: the lightness as optimized
+    chroma = Recoloring.fit(painting, style.image[0])  # the lightness as optimized
     return chroma.strokes(brush, x), canvas_color(chroma, background)
 
 
@@ -101,30 +102,29 @@ def canvas_color(recoloring: Recoloring, background: str) -> str:
 def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight: float,
             background: str = "white") -> Recoloring:
     """The shared recolouring of the painting ``strokes`` (N, d) of ``target`` (3, H, W) toward
-    ``style`` (3, h, w), with the largest lightness step t ∈ {0, 1/STEPS, …, 1} such that every
-    step up to t keeps the painting's luminance SSIM to ``target`` at ≥ (1 − STRUCTURE·``weight``)
-    × the plain painting's.
-
-    How much structure a lightness step costs depends on the pair: a photo toward a style of
-    similar contrast loses little, a high-contrast photo toward a flat style, or a near-black one
-    toward a light style, a lot. So the step is measured on
-    the painting itself (the vector engine at the target's size, a few ms a step), not set once for
-    all. ``weight`` 0 keeps the lightness.
+    ``style`` (3, h, w): the Gaussian start (:meth:`Recoloring.fit`), refined on the painting's
+    pixels (:meth:`Recoloring.refine`) under a floor of (1 − STRUCTURE·``weight``) × the plain
+    painting's luminance SSIM to ``target`` and a bound of :data:`COHERENT` on how far alike colours
+    part. Both are then checked on the painted strokes, where translucent strokes blend recoloured
+    colours: if either fails, the map goes back toward the start, 1/STEPS of the way at a time.
+    ``weight`` 0 keeps the lightness: the start alone.
     """
     if weight < 0:
         raise ValueError(f"style.weight={weight}: expected β_sty ≥ 0")
     _, height, width = target.shape
     with torch.no_grad():
         painting = paint_canvas(brush, strokes, height, width, background)
-        chosen = Recoloring.fit(painting, style, 0.0)
-        if weight == 0:
-            return chosen
-        floor = (1 - STRUCTURE * weight) * luminance_ssim(painting, target)
-        for step in range(1, STEPS + 1):
-            recoloring = Recoloring.fit(painting, style, step / STEPS)
+    start = Recoloring.fit(painting, style)
+    if weight == 0:
+        return start
+    floor = (1 - STRUCTURE * weight) * luminance_ssim(painting, target)
+    refined = start.refine(painting, target, style, floor, COHERENT)
+    with torch.no_grad():
+        for share in range(STEPS, 0, -1):
+            recoloring = start.toward(refined, share / STEPS)
             canvas = paint_canvas(brush, recoloring.strokes(brush, strokes), height, width,
                                   canvas_color(recoloring, background))
-            if luminance_ssim(canvas, target) < floor:
-                break
-            chosen = recoloring
-    return chosen
+            apart = coherence(painting, canvas, seed=1)  # NaN where no two colours are alike: nothing to part
+            if luminance_ssim(canvas, target) >= floor and not apart > COHERENT:
+                return recoloring
+    return start

@@ -1,69 +1,138 @@
 """Colour mode (paper §3.5): one recolouring shared by the whole painting.
 
-The painting's colour distribution is carried onto the style image's by optimal transport in
-L*a*b* (:mod:`nsp.style.color`) between the two distributions' Gaussian approximations. There the
-optimal map is affine, so colours that were alike stay alike. Lightness and chroma go apart:
+A :class:`Recoloring` maps L*a*b* / 100 colours (:mod:`nsp.style.color`):
 
-- chroma (a*, b*), all the way: c ↦ μ_s + A(c − μ_p), A = Σ_p^-½ (Σ_p^½ Σ_s Σ_p^½)^½ Σ_p^-½, the
-  transport map between the painting's (p) and the style's (s) Gaussians. The photo's hues are not
-  its content: they are what colour mode replaces. A's stretch is capped (:data:`STRETCH`): a
-  drab painting carried onto a vivid style would otherwise pull its near-alike colours apart.
-- lightness L, a ``step`` t ∈ [0, 1] of the way: L carries the photo's content, so it moves along
-  the transport path L' = L + t·(T(L) − L), T the transport map between the two lightness
-  Gaussians. T is affine and increasing, so L' is too: tones keep their order, edges stay edges,
-  and t = 1 gives the style's mean and spread of lightness (the spread's stretch capped as
-  chroma's). How far to go depends on how much
-  luminance structure a step costs, which only the painting shows: ``nsp.painter.stylize`` chooses t.
+- lightness L ↦ f(L), f increasing and piecewise linear over :data:`KNOTS` pieces of [0, 1], its
+  slope at most :data:`STRETCH`: tones keep their order, so edges stay edges;
+- chroma c = (a*, b*) ↦ μ_s + A(c − μ_p) + g(L), A a 2×2 matrix and g piecewise linear in L: a tone
+  may take a hue of its own (the style's shadows blue, its lights yellow).
+
+It is one map for every stroke and the canvas colour, so colours that were alike stay alike.
+
+- :meth:`Recoloring.fit` is the start: A is the optimal transport map between the Gaussian
+  approximations of the painting's (p) and the style's (s) chroma, Σ_p^-½ (Σ_p^½ Σ_s Σ_p^½)^½ Σ_p^-½,
+  its stretch capped at :data:`STRETCH` (a drab painting carried onto a vivid style would
+  otherwise pull its near-alike colours apart); f is the identity and g zero. The photo's hues are
+  not its content: they are what colour mode replaces. Its lightness is.
+- :meth:`Recoloring.refine` then fits f, g and A to the style's colours themselves, by gradient
+  steps on the painting's pixels: the sliced Wasserstein distance to the style's colours falls,
+  while the luminance SSIM to the photo stays above a floor and colours alike in the painting stay
+  within a bound of each other. A Gaussian map gives a grey photo the style's mean hue and little
+  more; g spreads the style's hues over the tones, and f takes the style's tones as far as the
+  floor allows.
 """
 from __future__ import annotations
 
 import torch
+import torch.nn.functional as F
 from torch import Tensor
 
 from nsp.brushes import Brush
+from nsp.painter.images import ssim
 from nsp.style.color import lab_to_rgb, rgb_to_lab
+from nsp.style.losses import sliced_wasserstein
+from nsp.style.measures import NEAR
 
-EPS = 1e-4  # added to the painting's covariance: (1 ΔE)², so a grey painting's chroma stays invertible
-STRETCH = 2.0  # the most the map may stretch colour differences: A's largest eigenvalue, T's slope
+EPS = 1e-4  # added to the painting's chroma covariance: (1 ΔE)², so a grey painting's stays invertible
+STRETCH = 2.0  # the most the start stretches chroma differences (A's largest eigenvalue) and f's slope
+KNOTS = 16  # f and g are linear on each of KNOTS equal pieces of L ∈ [0, 1]
+STEPS = 150  # refine's gradient steps
+RATE = 0.05  # refine's Adam learning rate, cosine-annealed to 0
+PIXELS = 2048  # seeded pixels of the painting and of the style whose colours refine compares
+PROJECTIONS = 32  # sliced Wasserstein directions a refine step draws
+PAIRS = 1024  # seeded pixels among which refine finds the alike pairs it holds together
+PENALTY = 10.0  # the weight of a bound's excess against the colour distance
+MARGIN = 0.1  # refine aims this share inside each bound: the strokes' blends differ a little from pixels'
 
 
 class Recoloring:
-    """The affine map lab ↦ mean_out + matrix·(lab − mean_in) of L*a*b* / 100 colours, applied to RGB.
+    """The map of L*a*b* / 100 colours lab ↦ (f(L), mean_out + matrix·(c − mean_in) + g(L)), applied to RGB.
 
     Args:
-        mean_in, mean_out: (3,) L*a*b* / 100 means of the painting and of its recolouring.
-        matrix: (3, 3), block-diagonal: lightness alone, then chroma.
-        step: how far the lightness moved toward the style's, in [0, 1].
+        lightness: (KNOTS + 1,) f at L = 0, 1/KNOTS, …, 1, increasing.
+        hue: (KNOTS + 1, 2) g at the same L.
+        matrix: (2, 2) A.
+        mean_in, mean_out: (2,) the chroma means of the painting and of its recolouring.
     """
 
-    def __init__(self, mean_in: Tensor, mean_out: Tensor, matrix: Tensor, step: float = 0.0):
-        self.mean_in, self.mean_out, self.matrix, self.step = mean_in, mean_out, matrix, step
+    def __init__(self, lightness: Tensor, hue: Tensor, matrix: Tensor, mean_in: Tensor, mean_out: Tensor):
+        self.lightness, self.hue, self.matrix, self.mean_in, self.mean_out = lightness, hue, matrix, mean_in, mean_out
 
     @classmethod
-    def fit(cls, painting: Tensor, style: Tensor, step: float = 0.0) -> Recoloring:
-        """The recolouring of ``painting`` (3, H, W) toward ``style`` (3, h, w), both RGB in [0, 1];
-        ``step`` ∈ [0, 1]: how far the lightness moves toward the style's (0: kept, 1: the style's
-        mean and spread)."""
-        if not 0 <= step <= 1:
-            raise ValueError(f"lightness step {step}: expected 0 ≤ step ≤ 1")
-        p = rgb_to_lab(painting.detach().flatten(1).cpu().double(), dim=0)  # (3, N); a 3×3 fit: on the CPU
-        s = rgb_to_lab(style.detach().flatten(1).cpu().double(), dim=0)  # (3, M)
-        mean_p, mean_s = p.mean(1), s.mean(1)
-        t = float(step)
-        scale = (s[0].std() / (p[0].var() + EPS).sqrt()).clamp(max=STRETCH)
-        matrix = torch.zeros(3, 3, dtype=torch.float64)
-        matrix[0, 0] = 1 - t + t * scale
-        chroma = gaussian_transport(torch.cov(p[1:]) + EPS * torch.eye(2, dtype=p.dtype), torch.cov(s[1:]))
-        values, vectors = torch.linalg.eigh(chroma)
-        matrix[1:, 1:] = vectors @ torch.diag(values.clamp(max=STRETCH)) @ vectors.T
-        mean_out = torch.cat([mean_p[:1] + t * (mean_s[:1] - mean_p[:1]), mean_s[1:]])
-        return cls(mean_p.float(), mean_out.float(), matrix.float(), t)
+    def fit(cls, painting: Tensor, style: Tensor) -> Recoloring:
+        """The start: the chroma of ``painting`` (3, H, W) carried onto ``style``'s (3, h, w), both
+        RGB in [0, 1], by the Gaussian transport map; the lightness kept."""
+        p = rgb_to_lab(painting.detach().flatten(1).cpu().double(), dim=0)[1:]  # (2, N); a 2×2 fit: on the CPU
+        s = rgb_to_lab(style.detach().flatten(1).cpu().double(), dim=0)[1:]  # (2, M)
+        transport = gaussian_transport(torch.cov(p) + EPS * torch.eye(2, dtype=p.dtype), torch.cov(s))
+        values, vectors = torch.linalg.eigh(transport)
+        matrix = vectors @ torch.diag(values.clamp(max=STRETCH)) @ vectors.T
+        return cls(torch.linspace(0, 1, KNOTS + 1), torch.zeros(KNOTS + 1, 2), matrix.float(), p.mean(1).float(),
+                   s.mean(1).float())
+
+    def refine(self, painting: Tensor, photo: Tensor, style: Tensor, floor: float, bound: float,
+               seed: int = 0) -> Recoloring:
+        """This map refined so that ``painting`` (3, H, W) takes ``style``'s colours (3, h, w): its
+        sliced Wasserstein distance to them falls, while its luminance SSIM to ``photo`` (3, H, W)
+        stays ≥ ``floor`` and colours within :data:`~nsp.style.measures.NEAR` of each other in it end
+        up ≤ ``bound`` apart on average (RGB), each aimed :data:`MARGIN` inside; all RGB in [0, 1].
+        :data:`STEPS` Adam steps on the painting's pixels, their draws seeded by ``seed``."""
+        generator = torch.Generator().manual_seed(seed)
+        height, width = painting.shape[1:]
+        colors = painting.detach().cpu().float().flatten(1).T  # (N, 3)
+        lab = rgb_to_lab(colors)
+        styles = rgb_to_lab(style.detach().cpu().float().flatten(1).T)
+        styles = styles[torch.randperm(len(styles), generator=generator)[:PIXELS]].T[None, :, :, None]  # (1, 3, M, 1)
+        compared = torch.randperm(len(lab), generator=generator)[:PIXELS]
+        first, second = _alike(colors, generator)
+        photo_lightness = rgb_to_lab(photo.detach().cpu().float(), dim=0)[:1]
+        floor, bound = floor + MARGIN * (1 - floor), (1 - MARGIN) * bound
+
+        weights = _hat(lab[:, 0])  # (N, KNOTS + 1): lab's L between the knots, fixed while the map changes
+        centred = lab[:, 1:] - self.mean_in
+        slope = (self.lightness.diff() * KNOTS / STRETCH).clamp(1e-3, 1 - 1e-3)
+        logits = torch.logit(slope).requires_grad_(True)  # f's slope, STRETCH·sigmoid: increasing, ≤ STRETCH
+        start = self.lightness[:1].clone().requires_grad_(True)
+        hue, matrix = self.hue.clone().requires_grad_(True), self.matrix.clone().requires_grad_(True)
+        optimizer = torch.optim.Adam([logits, start, hue, matrix], lr=RATE)
+        schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, STEPS)
+
+        def lightness() -> Tensor:
+            return torch.cat([start, start + torch.cumsum(STRETCH * torch.sigmoid(logits) / KNOTS, 0)])
+
+        for _ in range(STEPS):
+            chroma = self.mean_out + centred @ matrix.T + weights @ hue
+            rgb = lab_to_rgb(torch.cat([(weights @ lightness())[:, None], chroma], 1)).clamp(0, 1)  # as painted
+            out = rgb_to_lab(rgb)
+            distance = sliced_wasserstein(out[compared].T[None, :, :, None], styles, PROJECTIONS, generator)
+            structure = ssim(out[:, 0].reshape(1, height, width), photo_lightness)
+            spread = (rgb[first] - rgb[second]).norm(dim=1).mean() if len(first) else torch.zeros(())
+            loss = distance + PENALTY * (F.relu(floor - structure) + F.relu(spread - bound))
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            schedule.step()
+        with torch.no_grad():
+            return Recoloring(lightness(), hue.detach(), matrix.detach(), self.mean_in, self.mean_out)
+
+    def toward(self, other: Recoloring, share: float) -> Recoloring:
+        """The map ``share`` ∈ [0, 1] of the way from this one to ``other`` (same means), parameter by
+        parameter; f stays increasing."""
+        def mix(a: Tensor, b: Tensor) -> Tensor:
+            return (1 - share) * a + share * b
+
+        return Recoloring(mix(self.lightness, other.lightness), mix(self.hue, other.hue),
+                          mix(self.matrix, other.matrix), self.mean_in, self.mean_out)
+
+    def lab(self, lab: Tensor) -> Tensor:
+        """Recoloured L*a*b* / 100 colours (..., 3), possibly outside the sRGB gamut."""
+        weights = _hat(lab[..., 0])
+        chroma = self.mean_out.to(lab) + (lab[..., 1:] - self.mean_in.to(lab)) @ self.matrix.to(lab).T
+        return torch.cat([(weights @ self.lightness.to(lab))[..., None], chroma + weights @ self.hue.to(lab)], -1)
 
     def __call__(self, rgb: Tensor, dim: int = -1) -> Tensor:
         """Recoloured ``rgb`` in [0, 1], channels along ``dim`` (any shape); out of gamut: clamped."""
-        lab = rgb_to_lab(rgb, dim).movedim(dim, -1)
-        lab = self.mean_out.to(lab) + (lab - self.mean_in.to(lab)) @ self.matrix.to(lab).T
-        return lab_to_rgb(lab).clamp(0, 1).movedim(-1, dim)
+        return lab_to_rgb(self.lab(rgb_to_lab(rgb, dim).movedim(dim, -1))).clamp(0, 1).movedim(-1, dim)
 
     def strokes(self, brush: Brush, x: Tensor) -> Tensor:
         """Strokes (N, d) with every colour (each RGB triple of ``brush.color``) recoloured; all
@@ -72,6 +141,25 @@ class Recoloring:
         out = x.detach().clone()
         out[:, color] = self(x.detach()[:, color].reshape(len(x), -1, 3)).reshape(len(x), -1)
         return out
+
+
+def _hat(lightness: Tensor) -> Tensor:
+    """The weights (..., KNOTS + 1) of the knots L = 0, 1/KNOTS, …, 1 that interpolate linearly at
+    ``lightness`` (...), clamped to [0, 1]."""
+    position = lightness.clamp(0, 1) * KNOTS
+    index = position.floor().clamp(max=KNOTS - 1)
+    frac = (position - index)[..., None]
+    below = F.one_hot(index.long(), KNOTS + 1).to(lightness)
+    return (1 - frac) * below + frac * below.roll(1, -1)
+
+
+def _alike(colors: Tensor, generator: torch.Generator) -> tuple[Tensor, Tensor]:
+    """Indices (P,), (P,) of the pairs among :data:`PAIRS` seeded rows of ``colors`` (N, 3) that lie
+    within :data:`~nsp.style.measures.NEAR` of each other, as :func:`~nsp.style.measures.coherence`
+    pairs pixels."""
+    pick = torch.randperm(len(colors), generator=generator)[:PAIRS]
+    first, second = (torch.cdist(colors[pick], colors[pick]) < NEAR).triu(1).nonzero().unbind(1)
+    return pick[first], pick[second]
 
 
 def gaussian_transport(source: Tensor, target: Tensor) -> Tensor:
