@@ -231,7 +231,8 @@ def grey_to_colour(astronaut):
 def test_refining_takes_the_style_s_colours_further_within_both_bounds(grey_to_colour):
     grey, style, start, floor, refined = grey_to_colour
     before, after = (color_distance(m(grey, dim=0), style) for m in (start, refined))
-    assert after < 0.6 * before  # the start gives a grey photo one hue; the style's vary with tone
+    assert after < 0.7 * before  # the start gives a grey photo one hue; the style's vary with tone,
+    assert refined.hue.norm(dim=1).max() > 0.05  # and the tones take hues of their own (5 ΔE or more)
     assert luminance_ssim(refined(grey, dim=0), grey) >= floor
     assert coherence(grey, refined(grey, dim=0)) <= 0.045
 

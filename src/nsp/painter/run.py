@@ -131,7 +131,7 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
     """The style steps on the painted ``strokes`` (N, d); logs ``style/*`` curves; returns new
     strokes, the canvas colour recoloured with them, and the seconds they took."""
     steps = cfg.style.steps if cfg.style.mode == "full" else 0  # colour mode is one recolouring, no steps
-    with ProgressBar(steps, cfg.progress, "style steps") as bar:
+    with ProgressBar(steps, cfg.progress, "style steps" if steps else "recolouring") as bar:
         def log_step(step: int, losses: dict[str, float]) -> None:
             for name, value in losses.items():
                 writer.add_scalar(f"style/{name}", value, step)

@@ -38,8 +38,11 @@ STRETCH = 2.0  # the most the start stretches chroma differences (A's largest ei
 KNOTS = 16  # f and g are linear on each of KNOTS equal pieces of L ∈ [0, 1]
 STEPS = 150  # refine's gradient steps
 RATE = 0.05  # refine's Adam learning rate, cosine-annealed to 0
+HUE_RATE = RATE / 10  # g's: near black, a step of chroma leaves the sRGB gamut
 PIXELS = 2048  # seeded pixels of the painting and of the style whose colours refine compares
 PROJECTIONS = 32  # sliced Wasserstein directions a refine step draws
+JUDGE = 128  # the fixed directions the iterates are compared on, every CHECK steps; the best is kept
+CHECK = 10
 PAIRS = 1024  # seeded pixels among which refine finds the alike pairs it holds together
 PENALTY = 10.0  # the weight of a bound's excess against the colour distance
 MARGIN = 0.1  # refine aims this share inside each bound: the strokes' blends differ a little from pixels'
@@ -94,26 +97,40 @@ class Recoloring:
         logits = torch.logit(slope).requires_grad_(True)  # f's slope, STRETCH·sigmoid: increasing, ≤ STRETCH
         start = self.lightness[:1].clone().requires_grad_(True)
         hue, matrix = self.hue.clone().requires_grad_(True), self.matrix.clone().requires_grad_(True)
-        optimizer = torch.optim.Adam([logits, start, hue, matrix], lr=RATE)
+        optimizer = torch.optim.Adam([{"params": [logits, start, matrix]}, {"params": [hue], "lr": HUE_RATE}], lr=RATE)
         schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, STEPS)
 
-        def lightness() -> Tensor:
-            return torch.cat([start, start + torch.cumsum(STRETCH * torch.sigmoid(logits) / KNOTS, 0)])
+        def current() -> Recoloring:
+            values = torch.cat([start, start + torch.cumsum(STRETCH * torch.sigmoid(logits) / KNOTS, 0)])
+            return Recoloring(values, hue, matrix, self.mean_in, self.mean_out)
 
-        for _ in range(STEPS):
+        def objective(draws: torch.Generator, projections: int) -> Tensor:
+            recoloring = current()
             chroma = self.mean_out + centred @ matrix.T + weights @ hue
-            rgb = lab_to_rgb(torch.cat([(weights @ lightness())[:, None], chroma], 1)).clamp(0, 1)  # as painted
+            rgb = lab_to_rgb(torch.cat([(weights @ recoloring.lightness)[:, None], chroma], 1)).clamp(0, 1)  # as painted
             out = rgb_to_lab(rgb)
-            distance = sliced_wasserstein(out[compared].T[None, :, :, None], styles, PROJECTIONS, generator)
+            distance = sliced_wasserstein(out[compared].T[None, :, :, None], styles, projections, draws)
             structure = ssim(out[:, 0].reshape(1, height, width), photo_lightness)
             spread = (rgb[first] - rgb[second]).norm(dim=1).mean() if len(first) else torch.zeros(())
-            loss = distance + PENALTY * (F.relu(floor - structure) + F.relu(spread - bound))
+            return distance + PENALTY * (F.relu(floor - structure) + F.relu(spread - bound))
+
+        def judged() -> tuple[float, Recoloring]:
+            """The objective on the same directions at every check, and a copy of the map."""
+            with torch.no_grad():
+                score = float(objective(torch.Generator().manual_seed(seed), JUDGE))
+                kept = current()
+                return score, Recoloring(kept.lightness, hue.clone(), matrix.clone(), self.mean_in, self.mean_out)
+
+        best = judged()  # the start: refining never returns a worse map by its own measure
+        for step in range(1, STEPS + 1):
+            loss = objective(generator, PROJECTIONS)
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
             schedule.step()
-        with torch.no_grad():
-            return Recoloring(lightness(), hue.detach(), matrix.detach(), self.mean_in, self.mean_out)
+            if step % CHECK == 0:
+                best = min(best, judged(), key=lambda scored: scored[0])
+        return best[1]
 
     def toward(self, other: Recoloring, share: float) -> Recoloring:
         """The map ``share`` ∈ [0, 1] of the way from this one to ``other`` (same means), parameter by
