@@ -66,6 +66,7 @@ PAINT = [  # (case id, overrides, words the one line must contain)
     ("style mode unknown", ["style.mode=nope"], "style.mode=nope"),
     ("style steps negative", ["style.steps=-1"], "style.steps=-1"),
     ("style size zero", ["style.size=0"], "style.size=0"),
+    ("style weight negative", ["style.weight=-1"], "style.weight=-1"),
     ("seed not a number", ["seed=abc"], "seed=abc"),
     ("threads negative", ["threads=-1"], "threads=-1"),
     ("key misspelt", ["strokse=3"], "Did you mean 'strokes'"),

@@ -93,6 +93,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
             renderer = load_neural(cfg.renderer.checkpoint, brush, device)
         if cfg.style.steps < 0 or cfg.style.size <= 0:
             raise BadInput(f"style.steps={cfg.style.steps}, style.size={cfg.style.size}: expected steps ≥ 0, size > 0")
+        if cfg.style.weight < 0:
+            raise BadInput(f"style.weight={cfg.style.weight}: expected β_sty ≥ 0 (0 keeps the photo's tones; the paper's 0.5)")
         style = None
         if cfg.style.image is not None:
             image = load_image(cfg.style.image, max_side=cfg.style.size, key="style.image")
