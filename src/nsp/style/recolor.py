@@ -91,8 +91,6 @@ class Recoloring:
         photo_lightness = rgb_to_lab(photo.detach().cpu().float(), dim=0)[:1]
         floor, bound = floor + MARGIN * (1 - floor), (1 - MARGIN) * bound
 
-        weights = _hat(lab[:, 0])  # (N, KNOTS + 1): lab's L between the knots, fixed while the map changes
-        centred = lab[:, 1:] - self.mean_in
         slope = (self.lightness.diff() * KNOTS / STRETCH).clamp(1e-3, 1 - 1e-3)
         logits = torch.logit(slope).requires_grad_(True)  # f's slope, STRETCH·sigmoid: increasing, ≤ STRETCH
         start = self.lightness[:1].clone().requires_grad_(True)
@@ -105,9 +103,7 @@ class Recoloring:
             return Recoloring(values, hue, matrix, self.mean_in, self.mean_out)
 
         def objective(draws: torch.Generator, projections: int) -> Tensor:
-            recoloring = current()
-            chroma = self.mean_out + centred @ matrix.T + weights @ hue
-            rgb = lab_to_rgb(torch.cat([(weights @ recoloring.lightness)[:, None], chroma], 1)).clamp(0, 1)  # as painted
+            rgb = lab_to_rgb(current().lab(lab)).clamp(0, 1)  # as painted
             out = rgb_to_lab(rgb)
             distance = sliced_wasserstein(out[compared].T[None, :, :, None], styles, projections, draws)
             structure = ssim(out[:, 0].reshape(1, height, width), photo_lightness)
@@ -119,7 +115,7 @@ class Recoloring:
             with torch.no_grad():
                 score = float(objective(torch.Generator().manual_seed(seed), JUDGE))
                 kept = current()
-                return score, Recoloring(kept.lightness, hue.clone(), matrix.clone(), self.mean_in, self.mean_out)
+                return score, Recoloring(kept.lightness, kept.hue.clone(), kept.matrix.clone(), self.mean_in, self.mean_out)
 
         best = judged()  # the start: refining never returns a worse map by its own measure
         for step in range(1, STEPS + 1):
