@@ -47,8 +47,8 @@ def scene():
 def run(scene, mode, steps=25, seed=0, callbacks=()):
     brush, strokes, target, style_image = scene
     style = StyleLoss(style_image, "random", seed=seed)
-    return stylize(brush, strokes, target, PaintLoss.from_config(LossConfig()), style,
-                   partial(torch.optim.RMSprop, lr=0.01), weight=0.5, steps=steps, mode=mode, callbacks=callbacks)
+    return stylize(brush, strokes, target, style_image[0], PaintLoss.from_config(LossConfig()),
+                   partial(torch.optim.RMSprop, lr=0.01), loss=style, weight=0.5, steps=steps, mode=mode, callbacks=callbacks)
 
 
 def draw(brush, strokes, background="white"):
@@ -103,7 +103,7 @@ def test_color_mode_recolours_the_canvas_a_translucent_stroke_shows(scene):
     x[1, 1:6:2] = 0.7  # the opaque one lower down
     plain = draw(brush, x)
     assert torch.allclose(plain[:, 14, 24], plain[:, 33, 24], atol=1e-6)
-    y, canvas = stylize(brush, x, plain, PaintLoss.from_config(LossConfig()), StyleLoss(style, "random"),
+    y, canvas = stylize(brush, x, plain, style[0], PaintLoss.from_config(LossConfig()),
                         partial(torch.optim.RMSprop, lr=0.01), mode="color")
     apart = [(image[:, 14, 24] - image[:, 33, 24]).norm() for image in (draw(brush, y, canvas), draw(brush, y))]
     assert canvas != "#ffffff" and apart[0] < 0.25 * apart[1]
@@ -191,12 +191,15 @@ def paint_cli(tmp_path, *args, env=None):
     )
 
 
-def test_paint_with_a_style_image_writes_style_png(tmp_path):
+def test_color_mode_needs_no_network_weights_and_writes_style_png(tmp_path):
+    import os
+
     import PIL.Image
 
     PIL.Image.fromarray(skimage.data.coffee()).save(tmp_path / "coffee.png")
-    result = paint_cli(tmp_path / "run", f"style.image={tmp_path / 'coffee.png'}", "style.backbone=random",
-                       "style.steps=3", "style.size=32", "style.mode=color")
+    env = dict(os.environ, TORCH_HOME=str(tmp_path / "empty"))  # no VGG-19 weights: the default backbone's
+    result = paint_cli(tmp_path / "run", f"style.image={tmp_path / 'coffee.png'}", "style.size=32", "style.mode=color",
+                       env=env)
     assert result.returncode == 0, result.stderr
     assert PIL.Image.open(tmp_path / "run" / "style.png").size == (32, 21)  # coffee is 600×400
     assert (tmp_path / "run" / "final.png").exists()

@@ -100,7 +100,7 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
     rows, tiles = [], []
     for photo_name in photos:
         spec = photo_spec(photo_name, out / "photos")
-        painter, photo, _ = prepare(OmegaConf.merge(cfg, {"image": spec, "style": {"image": None}}))
+        painter, photo, _, _ = prepare(OmegaConf.merge(cfg, {"image": spec, "style": {"image": None}}))
         brush, loss = painter.brush, painter.loss
         strokes = painter.paint(resize(photo, cfg.work_size), cfg.strokes)
         photo = resize(photo, cfg.style.size)
@@ -111,7 +111,7 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
             style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
             paintings = {"plain": plain}
             for mode in modes:
-                styled, canvas = stylize(brush, strokes, photo, loss, style, instantiate(cfg.optimizer),
+                styled, canvas = stylize(brush, strokes, photo, image, loss, instantiate(cfg.optimizer), loss=style,
                                          weight=cfg.style.weight, steps=cfg.style.steps, mode=mode,
                                          background=cfg.background, softness=cfg.renderer.softness)
                 paintings[mode] = paint_canvas(brush, styled, height, width, canvas)

@@ -42,9 +42,10 @@ MIN_WORK_SIZE = 16  # the coarsest canvas strokes are optimized on, in pixels
 log = logging.getLogger(__name__)
 
 
-def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
-    """Check every input; build the painter, the photo (3, H, W) and the style loss (``None``
-    without ``style.image``); writes nothing.
+def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None, StyleLoss | None]:
+    """Check every input; build the painter, the photo (3, H, W), the style image (3, h, w) and
+    full mode's style loss (``None`` without ``style.image``; the loss ``None`` in colour mode, which
+    needs no feature network); writes nothing.
 
     Raises :class:`BadInput` naming the value and what is valid.
     """
@@ -95,7 +96,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
             raise BadInput(f"style.steps={cfg.style.steps}, style.size={cfg.style.size}: expected steps ≥ 0, size > 0")
         if cfg.style.weight < 0:
             raise BadInput(f"style.weight={cfg.style.weight}: expected β_sty ≥ 0 (0 keeps the photo's tones; the paper's 0.5)")
-        style = None
+        image = style = None
         if cfg.style.image is not None:
             image = load_image(cfg.style.image, max_side=cfg.style.size, key="style.image")
             for key, picture in (("image", photo), ("style.image", image)):
@@ -104,9 +105,10 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
                     short, long = sorted(picture.shape[-2:])  # short − 1: it may have been read shrunk, its aspect rounded
                     need = math.ceil(MIN_SIDE * long / max(short - 1, 0.5))
                     raise BadInput(f"style.size={cfg.style.size}: {key} is {shape[0]}×{shape[1]} px at that size, under the "
-                                   f"{MIN_SIDE} px a side the style network needs; use style.size={need} or more")
-            image = resize(image, cfg.style.size)
-            style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed).to(device)
+                                   f"{MIN_SIDE} px a side style transfer needs; use style.size={need} or more")
+            image = resize(image, cfg.style.size).to(device)
+            if cfg.style.mode == "full":
+                style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed).to(device)
     except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None
     loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.background))
@@ -116,7 +118,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, StyleLoss | None]:
                       candidates=s.candidates, detail_side=s.detail_side, face_share=s.face_share,
                       palette=s.palette,
                       background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
-    return painter, photo.to(device), style
+    return painter, photo.to(device), image, style
 
 
 def settings(cfg: DictConfig) -> dict[str, str | int | float]:
@@ -128,10 +130,11 @@ def settings(cfg: DictConfig) -> dict[str, str | int | float]:
             "style.image": str(cfg.style.image)}
 
 
-def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo: torch.Tensor, style: StyleLoss,
-                writer: SummaryWriter) -> tuple[torch.Tensor, str, float]:
-    """The style steps on the painted ``strokes`` (N, d); logs ``style/*`` curves; returns new
-    strokes, the canvas colour recoloured with them, and the seconds they took."""
+def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo: torch.Tensor, image: torch.Tensor,
+                style: StyleLoss | None, writer: SummaryWriter) -> tuple[torch.Tensor, str, float]:
+    """Restyle the painted ``strokes`` (N, d) toward ``image`` (3, h, w), with full mode's style
+    loss ``style``; logs ``style/*`` curves; returns new strokes, the canvas colour recoloured with
+    them, and the seconds they took."""
     steps = cfg.style.steps if cfg.style.mode == "full" else 0  # colour mode is one recolouring, no steps
     with ProgressBar(steps, cfg.progress, "style steps" if steps else "recolouring") as bar:
         def log_step(step: int, losses: dict[str, float]) -> None:
@@ -139,8 +142,8 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
                 writer.add_scalar(f"style/{name}", value, step)
             bar.advance(1, f"style {losses['style']:.3f}")
 
-        strokes, background = stylize(painter.brush, strokes, resize(photo, cfg.style.size), painter.loss, style,
-                                      instantiate(cfg.optimizer), weight=cfg.style.weight, steps=cfg.style.steps,
+        strokes, background = stylize(painter.brush, strokes, resize(photo, cfg.style.size), image, painter.loss,
+                                      instantiate(cfg.optimizer), loss=style, weight=cfg.style.weight, steps=cfg.style.steps,
                                       mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness,
                                       callbacks=[log_step])
     return strokes, background, bar.seconds
@@ -154,7 +157,7 @@ def paint(cfg: DictConfig) -> dict:
     ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises.
     """
     start = time.perf_counter()
-    painter, photo, style = prepare(cfg)
+    painter, photo, image, style = prepare(cfg)
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
     out = Path(cfg.output_dir)
@@ -177,10 +180,10 @@ def paint(cfg: DictConfig) -> dict:
         painting = bar.seconds
         on_faces = f" ({counted(len(faces), 'face')} given a level of {'its' if len(faces) == 1 else 'their'} own)" if faces else ""
         phases.append(f"painted {counted(len(strokes), painter.brush.name + ' stroke')}{on_faces} in {painting:.1f} s")
-        if style is not None:
-            write_png(out / "style.png", style.image[0])
+        if image is not None:
+            write_png(out / "style.png", image)
             try:
-                strokes, background, seconds = paint_style(cfg, painter, strokes, photo, style, writer)
+                strokes, background, seconds = paint_style(cfg, painter, strokes, photo, image, style, writer)
             except BaseException:
                 with shielded():
                     write_strokes_and_png(out, strokes, *shared)  # the unstyled painting

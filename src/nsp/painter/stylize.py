@@ -41,10 +41,11 @@ def stylize(
     brush: Brush,
     strokes: Tensor,
     target: Tensor,
+    style: Tensor,
     content: Callable[[Tensor, Tensor], dict[str, Tensor]],
-    style: StyleLoss,
     optimizer: Callable[[list[Tensor]], Optimizer],
     *,
+    loss: StyleLoss | None = None,
     weight: float = 0.25,
     steps: int = 200,
     mode: str = "full",
@@ -52,20 +53,24 @@ def stylize(
     softness: float | None = None,
     callbacks: Sequence[Callable[[int, dict[str, float]], None]] = (),
 ) -> tuple[Tensor, str]:
-    """Restyle ``strokes`` (N, d), a painting of ``target`` (3, H, W), in the style of ``style.image``.
+    """Restyle ``strokes`` (N, d), a painting of ``target`` (3, H, W), in the style of the image
+    ``style`` (3, h, w), all RGB in [0, 1].
 
-    The canvas is the vector engine at the target's size. ``content(canvas, target)`` returns the
-    painter's terms with their weighted ``total``; ``style(canvas)`` the style loss. ``weight`` is
-    β_sty: how far the lightness follows the style's, and in full mode the style loss's weight in
-    the ``steps`` optimizer steps (colour mode takes none), on soft edges ``softness`` px wide
-    (None: the brush's own).
+    The canvas is the vector engine at the target's size. Full mode's steps need ``loss``, the
+    style loss against ``style`` (``loss(canvas)``); ``content(canvas, target)`` returns the
+    painter's terms with their weighted ``total``. Colour mode uses neither, nor ``optimizer``: it
+    builds no feature network. ``weight`` is β_sty: how far the lightness follows the style's, and
+    in full mode the style loss's weight in the ``steps`` optimizer steps, on soft edges
+    ``softness`` px wide (None: the brush's own).
     Returns the stylized strokes (N, d) in [0, 1] and the canvas colour ``background`` recoloured
     by the same map (``#rrggbb``); each callback gets (step, losses) after each step.
     """
     if mode not in MODES:
         raise ValueError(f"style.mode={mode}: expected one of {', '.join(MODES)}")
+    if mode == "full" and loss is None:
+        raise ValueError("style.mode=full: the style steps need the style loss (loss=StyleLoss(style[None], …))")
     _, height, width = target.shape
-    recoloring = recolor(brush, strokes, target, style.image[0], weight, background)
+    recoloring = recolor(brush, strokes, target, style, weight, background)
     x, background = recoloring.strokes(brush, strokes), canvas_color(recoloring, background)
     if mode == "color":
         return x, background
@@ -79,7 +84,7 @@ def stylize(
     def objective() -> tuple[Tensor, dict[str, Tensor]]:
         canvas = paint_canvas(brush, x, height, width, background, softness=edge)[None]
         losses = content(canvas, target)
-        losses["style"] = style(canvas)
+        losses["style"] = loss(canvas)
         losses["total"] = losses["total"] + weight * losses["style"]
         return canvas, losses
 
@@ -88,7 +93,7 @@ def stylize(
             callback(step, losses)
     with torch.no_grad():
         painting = paint_canvas(brush, x, height, width, background)
-    chroma = Recoloring.fit(painting, style.image[0])  # the lightness as optimized
+    chroma = Recoloring.fit(painting, style)  # the lightness as optimized
     return chroma.strokes(brush, x), canvas_color(chroma, background)
 
 
