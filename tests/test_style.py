@@ -254,6 +254,20 @@ def test_a_share_of_the_way_blends_two_maps(grey_to_colour):
     torch.testing.assert_close(half.lab(colours), (start.lab(colours) + refined.lab(colours)) / 2)
 
 
+def test_matched_tones_carry_the_lightness_quantiles_onto_the_style_s(astronaut):
+    style = texture(data.gravel())[0] ** 2  # darker tones, spread otherwise
+    start = Recoloring.fit(astronaut, style)
+    matched = start.matched_tones(astronaut, style)
+    assert matched.lightness.diff().min() >= 0 and matched.hue.equal(start.hue) and matched.matrix.equal(start.matrix)
+    tones = [rgb_to_lab(x.flatten(1), dim=0)[0].sort().values for x in (astronaut, style)]
+    mapped = matched.lab(rgb_to_lab(astronaut.flatten(1), dim=0).T)[:, 0].sort().values
+    resampled = tones[1][torch.linspace(0, len(tones[1]) - 1, len(mapped)).round().long()]
+    before, after = ((x - resampled).abs().mean() for x in (tones[0], mapped))  # 1-D W1 to the style's tones
+    assert after < 0.1 * before
+    half = start.toward(matched, 0.5).lab(rgb_to_lab(astronaut.flatten(1), dim=0).T)[:, 0].sort().values
+    torch.testing.assert_close((half - resampled).abs().mean(), 0.5 * before, atol=0.1 * before, rtol=0)  # a geodesic
+
+
 @pytest.mark.parametrize("name", ["tape", "watercolor"])
 def test_recoloring_strokes_changes_colours_alone(astronaut, name):
     brush = get_brush(name)

@@ -29,7 +29,7 @@ from nsp.brushes.svg import hex_color
 from nsp.engine import paint_canvas, parse_color
 from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
-from nsp.style.measures import coherence, luminance_ssim
+from nsp.style.measures import coherence, color_distance, luminance_ssim
 
 MODES = ("full", "color")
 STRUCTURE = 0.2  # the share of luminance SSIM the recolouring may give up, per unit of β_sty
@@ -107,12 +107,15 @@ def canvas_color(recoloring: Recoloring, background: str) -> str:
 def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight: float,
             background: str = "white") -> Recoloring:
     """The shared recolouring of the painting ``strokes`` (N, d) of ``target`` (3, H, W) toward
-    ``style`` (3, h, w): the Gaussian start (:meth:`Recoloring.fit`), refined on the painting's
-    pixels (:meth:`Recoloring.refine`) under a floor of (1 − STRUCTURE·``weight``) × the plain
-    painting's luminance SSIM to ``target`` and a bound of :data:`COHERENT` on how far alike colours
-    part. Both are then checked on the painted strokes, where translucent strokes blend recoloured
-    colours: if either fails, the map goes back toward the start, 1/STEPS of the way at a time.
-    ``weight`` 0 keeps the lightness: the start alone.
+    ``style`` (3, h, w), under a floor of (1 − STRUCTURE·``weight``) × the plain painting's
+    luminance SSIM to ``target`` and a bound of :data:`COHERENT` on how far alike colours part.
+
+    From the Gaussian start (:meth:`Recoloring.fit`), two ends: the start refined on the painting's
+    pixels (:meth:`Recoloring.refine`), and the style's tones matched
+    (:meth:`Recoloring.matched_tones`). Each is checked on the painted strokes, where translucent
+    strokes blend recoloured colours, and where a bound fails it is taken back toward the start,
+    1/STEPS of the way at a time. Of the two, the one whose painting is nearer the style's colours
+    wins. ``weight`` 0 keeps the lightness: the start alone.
     """
     if weight < 0:
         raise ValueError(f"style.weight={weight}: expected β_sty ≥ 0")
@@ -123,13 +126,16 @@ def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight
     if weight == 0:
         return start
     floor = (1 - STRUCTURE * weight) * luminance_ssim(painting, target)
-    refined = start.refine(painting, target, style, floor, COHERENT)
+    ends = start.refine(painting, target, style, floor, COHERENT), start.matched_tones(painting, style)
+    kept = []  # (colour distance, recolouring) within both bounds
     with torch.no_grad():
-        for share in range(STEPS, 0, -1):
-            recoloring = start.toward(refined, share / STEPS)
-            canvas = paint_canvas(brush, recoloring.strokes(brush, strokes), height, width,
-                                  canvas_color(recoloring, background))
-            apart = coherence(painting, canvas, seed=1)  # NaN where no two colours are alike: nothing to part
-            if luminance_ssim(canvas, target) >= floor and not apart > COHERENT:
-                return recoloring
-    return start
+        for end in ends:
+            for share in range(STEPS, 0, -1):
+                recoloring = start.toward(end, share / STEPS)
+                canvas = paint_canvas(brush, recoloring.strokes(brush, strokes), height, width,
+                                      canvas_color(recoloring, background))
+                apart = coherence(painting, canvas, seed=1)  # NaN where no two colours are alike: nothing to part
+                if luminance_ssim(canvas, target) >= floor and not apart > COHERENT:
+                    kept.append((color_distance(canvas, style, seed=1), recoloring))
+                    break
+    return min(kept, key=lambda scored: scored[0])[1] if kept else start

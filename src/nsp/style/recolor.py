@@ -20,6 +20,8 @@ It is one map for every stroke and the canvas colour, so colours that were alike
   within a bound of each other. A Gaussian map gives a grey photo the style's mean hue and little
   more; g spreads the style's hues over the tones, and f takes the style's tones as far as the
   floor allows.
+- :meth:`Recoloring.matched_tones` is the other way to take the style's tones: f the tone
+  quantiles matched (histogram matching), to go part of the way toward.
 """
 from __future__ import annotations
 
@@ -127,6 +129,15 @@ class Recoloring:
             if step % CHECK == 0:
                 best = min(best, judged(), key=lambda scored: scored[0])
         return best[1]
+
+    def matched_tones(self, painting: Tensor, style: Tensor) -> Recoloring:
+        """This map with f the increasing map that carries ``painting``'s lightness quantiles onto
+        ``style``'s (1-D optimal transport, histogram matching), sampled at the knots; RGB (3, H, W)
+        and (3, h, w) in [0, 1]. :meth:`toward` it is displacement interpolation of the tones."""
+        own, their = (rgb_to_lab(x.detach().flatten(1).cpu().double(), dim=0)[0].sort().values for x in (painting, style))
+        rank = torch.searchsorted(own, torch.linspace(0, 1, KNOTS + 1, dtype=own.dtype)) / len(own)  # the CDF at the knots
+        tones = their[(rank * (len(their) - 1)).round().long()].float()
+        return Recoloring(tones, self.hue, self.matrix, self.mean_in, self.mean_out)
 
     def toward(self, other: Recoloring, share: float) -> Recoloring:
         """The map ``share`` ∈ [0, 1] of the way from this one to ``other`` (same means), parameter by
