@@ -143,14 +143,14 @@ def test_painting_seconds_count_the_work_after_the_last_stroke_is_placed(photo, 
         ("background=blue-ish", "background=blue-ish is not a colour"),
         ("schedule.init_size=[0.5,0.1]", "schedule.init_size=[0.5, 0.1]: expected [low, high]"),
         ("schedule.face_share=1.5", "schedule.face_share=1.5: expected a share of the strokes in [0, 1)"),
-        ("style.image={strip}", "style.size=128: style.image is 1×128 px at that size, under the 4 px a side the style "
-                                "network needs; use style.size=1024 or more"),
+        ("style.image={strip}", "style.size=128: style.image is 1×128 px at that size, under the 4 px a side style "
+                                "transfer needs; use style.size=1024 or more"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(override, message, photo, tmp_path):
     notes = tmp_path / "notes.txt"
     notes.write_text("not a picture")
-    strip = tmp_path / "strip.png"  # too thin for the style network at style.size
+    strip = tmp_path / "strip.png"  # too thin for style transfer at style.size
     Image.fromarray(np.zeros((2, 300, 3), dtype=np.uint8)).save(strip)
     out = tmp_path / "run"
     with pytest.raises(BadInput, match=re.escape(message)) as error:
