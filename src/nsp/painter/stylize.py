@@ -29,6 +29,7 @@ from nsp.brushes.svg import hex_color
 from nsp.engine import paint_canvas, parse_color
 from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
+from nsp.style.refine import refine_colors
 from nsp.style.measures import coherence, color_distance, luminance_ssim
 
 MODES = ("full", "color")
@@ -71,9 +72,16 @@ def stylize(
         raise ValueError("style.mode=full: the style steps need the style loss (loss=StyleLoss(style[None], …))")
     _, height, width = target.shape
     recoloring = recolor(brush, strokes, target, style, weight, background)
-    x, background = recoloring.strokes(brush, strokes), canvas_color(recoloring, background)
+    x, recoloured = recoloring.strokes(brush, strokes), canvas_color(recoloring, background)
     if mode == "color":
-        return x, background
+        if weight == 0:
+            return x, recoloured
+        with torch.no_grad():
+            plain = paint_canvas(brush, strokes, height, width, background)
+        x, canvas = refine_colors(brush, x, torch.tensor(parse_color(recoloured)), plain, target, style,
+                                  floor(plain, target, weight), COHERENT)
+        return x, hex_color(canvas)
+    background = recoloured
     target = recoloring(target, dim=0)[None]  # the photo in the style's colours
     x.requires_grad_(True)
     opt = optimizer([x])
@@ -104,6 +112,12 @@ def canvas_color(recoloring: Recoloring, background: str) -> str:
     return hex_color(recoloring(torch.tensor(parse_color(background))))
 
 
+def floor(plain: Tensor, target: Tensor, weight: float) -> float:
+    """The least luminance SSIM to ``target`` a restyled painting keeps: (1 − STRUCTURE·``weight``)
+    × the ``plain`` painting's (both (3, H, W))."""
+    return (1 - STRUCTURE * weight) * luminance_ssim(plain, target)
+
+
 def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight: float,
             background: str = "white") -> Recoloring:
     """The shared recolouring of the painting ``strokes`` (N, d) of ``target`` (3, H, W) toward
@@ -125,8 +139,8 @@ def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight
     start = Recoloring.fit(painting, style)
     if weight == 0:
         return start
-    floor = (1 - STRUCTURE * weight) * luminance_ssim(painting, target)
-    ends = start.refine(painting, target, style, floor, COHERENT), start.matched_tones(painting, style)
+    least = floor(painting, target, weight)
+    ends = start.refine(painting, target, style, least, COHERENT), start.matched_tones(painting, style)
     kept = []  # (colour distance, recolouring) within both bounds
     with torch.no_grad():
         for end in ends:
@@ -135,7 +149,7 @@ def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight
                 canvas = paint_canvas(brush, recoloring.strokes(brush, strokes), height, width,
                                       canvas_color(recoloring, background))
                 apart = coherence(painting, canvas, seed=1)  # NaN where no two colours are alike: nothing to part
-                if luminance_ssim(canvas, target) >= floor and not apart > COHERENT:
+                if luminance_ssim(canvas, target) >= least and not apart > COHERENT:
                     kept.append((color_distance(canvas, style, seed=1), recoloring))
                     break
     return min(kept, key=lambda scored: scored[0])[1] if kept else start

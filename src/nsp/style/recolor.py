@@ -89,7 +89,7 @@ class Recoloring:
         styles = rgb_to_lab(style.detach().cpu().float().flatten(1).T)
         styles = styles[torch.randperm(len(styles), generator=generator)[:PIXELS]].T[None, :, :, None]  # (1, 3, M, 1)
         compared = torch.randperm(len(lab), generator=generator)[:PIXELS]
-        first, second = _alike(colors, generator)
+        first, second = alike_pairs(colors, PAIRS, generator)
         photo_lightness = rgb_to_lab(photo.detach().cpu().float(), dim=0)[:1]
         floor, bound = floor + MARGIN * (1 - floor), (1 - MARGIN) * bound
 
@@ -177,11 +177,11 @@ def _hat(lightness: Tensor) -> Tensor:
     return (1 - frac) * below + frac * below.roll(1, -1)
 
 
-def _alike(colors: Tensor, generator: torch.Generator) -> tuple[Tensor, Tensor]:
-    """Indices (P,), (P,) of the pairs among :data:`PAIRS` seeded rows of ``colors`` (N, 3) that lie
+def alike_pairs(colors: Tensor, rows: int, generator: torch.Generator) -> tuple[Tensor, Tensor]:
+    """Indices (P,), (P,) of the pairs among ``rows`` seeded rows of ``colors`` (N, 3) that lie
     within :data:`~nsp.style.measures.NEAR` of each other, as :func:`~nsp.style.measures.coherence`
     pairs pixels."""
-    pick = torch.randperm(len(colors), generator=generator)[:PAIRS]
+    pick = torch.randperm(len(colors), generator=generator)[:rows]
     first, second = (torch.cdist(colors[pick], colors[pick]) < NEAR).triu(1).nonzero().unbind(1)
     return pick[first], pick[second]
 
