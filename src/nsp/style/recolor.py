@@ -189,12 +189,12 @@ def alike_pairs(colors: Tensor, rows: int, generator: torch.Generator) -> tuple[
 def gaussian_transport(source: Tensor, target: Tensor) -> Tensor:
     """The optimal transport map's matrix between centred Gaussians of covariances ``source`` and
     ``target`` (k, k): Σ₀^-½ (Σ₀^½ Σ₁ Σ₀^½)^½ Σ₀^-½, symmetric positive semi-definite."""
-    root = _sqrtm(source)
+    root = psd_sqrt(source)
     inverse = torch.linalg.inv(root)
-    return inverse @ _sqrtm(root @ target @ root) @ inverse
+    return inverse @ psd_sqrt(root @ target @ root) @ inverse
 
 
-def _sqrtm(matrix: Tensor) -> Tensor:
+def psd_sqrt(matrix: Tensor) -> Tensor:
     """The square root of a symmetric positive semi-definite matrix (k, k)."""
     values, vectors = torch.linalg.eigh((matrix + matrix.T) / 2)
     return vectors @ torch.diag(values.clamp(min=0).sqrt()) @ vectors.T

@@ -10,7 +10,8 @@ The steps lower the sliced Wasserstein distance to the style's colours under the
 as the shared map: the luminance SSIM to the photo stays above a floor, and colours alike in the
 painting stay within a bound of each other on average. The shared map keeps alike colours
 exactly alike; this step spends what is left of that bound, so strokes of one colour may part a
-little where the style's colours vary more than one map can make them.
+little where the style's colours vary more than one map can make them, and only in the
+directions they vary in (a grey style's: lightness alone).
 """
 from __future__ import annotations
 
@@ -24,13 +25,13 @@ from nsp.brushes import Brush
 from nsp.engine import paint_canvas
 from nsp.engine.raster import boxed_tiles
 from nsp.painter.images import ssim
-from nsp.style.color import rgb_to_lab
+from nsp.style.color import lab_to_rgb, rgb_to_lab
 from nsp.style.losses import sliced_wasserstein
 from nsp.style.measures import coherence, luminance_ssim
-from nsp.style.recolor import alike_pairs
+from nsp.style.recolor import alike_pairs, psd_sqrt
 
-STEPS = 200  # Adam steps on the colours
-RATE = 0.01  # their learning rate (RGB units)
+STEPS = 200  # Adam steps on the colours' offsets
+RATE = 0.01  # their learning rate, in standard deviations of the style's colours
 PIXELS = 2048  # seeded pixels among which the alike pairs are found, and whose colours a step compares
 PAIRS = 20000  # the alike pairs a step holds together, drawn afresh
 PROJECTIONS = 32  # sliced Wasserstein directions a step draws
@@ -115,6 +116,9 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
     toward ``style``'s colours (3, h, w): the painting's luminance SSIM to ``photo`` (3, H, W)
     stays ≥ ``floor``, and colours within :data:`~nsp.style.measures.NEAR` of each other in
     ``plain`` (3, H, W, the painting before any recolouring) end up ≤ ``bound`` apart on average.
+    Each colour moves by an offset in L*a*b* along the style's own spread of colours (offset =
+    Σ½·u, Σ the covariance of the style's colours): strokes part only in the directions the style's
+    colours vary in, so toward a grey style no stroke takes a hue.
     Returns the strokes and canvas colour of the best iterate within both bounds, or the ones given
     if none is nearer the style's colours. The iterates are judged on pixels and directions drawn
     with ``seed``, the steps' draws with ``seed`` + 1 (the measures of
@@ -142,10 +146,16 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
 
     start = colors(brush, strokes, canvas).float()
     scale = float(distance(paint(start), torch.Generator().manual_seed(seed), JUDGE))
-    table = start.clone().requires_grad_(True)
-    optimizer = torch.optim.Adam([table], lr=RATE)
+    spread_of_style = psd_sqrt(torch.cov(styles[0, :, :, 0].double()) + 1e-8 * torch.eye(3, dtype=torch.float64)).float()
+    offsets = torch.zeros_like(start).requires_grad_(True)  # in the style's standard deviations
+    optimizer = torch.optim.Adam([offsets], lr=RATE)
+
+    def current() -> Tensor:
+        return lab_to_rgb(rgb_to_lab(start) + offsets @ spread_of_style.T).clamp(0, 1)
+
     best = (scale, start)
     for step in range(1, STEPS + 1):
+        table = current()
         image = paint(table)
         pick = torch.randint(len(first), (min(len(first), PAIRS),), generator=generator)
         spread = ((image.flatten(1)[:, first[pick]] - image.flatten(1)[:, second[pick]]).norm(dim=0).mean()
@@ -157,13 +167,12 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
-        with torch.no_grad():
-            table.clamp_(0, 1)
         if step % CHECK == 0:
             with torch.no_grad():
+                table = current()
                 image = paint(table)
                 score = float(distance(image, torch.Generator().manual_seed(seed), JUDGE))
                 if score < best[0] and luminance_ssim(image, photo) >= floor and not coherence(plain, image, seed=seed) > bound:
-                    best = (score, table.detach().clone())
+                    best = (score, table)
     return with_colors(brush, strokes, best[1])
 
