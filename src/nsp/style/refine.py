@@ -145,7 +145,7 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
         return sliced_wasserstein(lab[None, :, pixels, None], sampled, projections, draws)
 
     start = colors(brush, strokes, canvas).float()
-    scale = float(distance(paint(start), torch.Generator().manual_seed(seed), JUDGE))
+    scale = max(float(distance(paint(start), torch.Generator().manual_seed(seed), JUDGE)), 1e-6)  # 0: the style's own colours
     spread_of_style = psd_sqrt(torch.cov(styles[0, :, :, 0].double()) + 1e-8 * torch.eye(3, dtype=torch.float64)).float()
     offsets = torch.zeros_like(start).requires_grad_(True)  # in the style's standard deviations
     optimizer = torch.optim.Adam([offsets], lr=RATE)
