@@ -6,10 +6,13 @@ import skimage.data
 import torch
 
 from nsp.brushes import BRUSHES
+from nsp.brushes.svg import hex_color
 from nsp.engine import paint_canvas
+from nsp.experiments.style import ceiling
 from nsp.style import Recoloring
+from nsp.style.color import rgb_to_lab
 from nsp.style.measures import coherence, color_distance, luminance_ssim
-from nsp.style.refine import color_basis, colors, footprints, probes, refine_colors, with_colors
+from nsp.style.refine import color_basis, colors, footprints, probes, refine_colors, style_spread, with_colors
 
 HEIGHT, WIDTH = 20, 28
 
@@ -68,3 +71,30 @@ def test_with_no_room_in_the_bounds_the_colours_come_back_as_given(painting):
     brush, strokes, photo, style = painting
     x, canvas = refine_colors(brush, strokes, torch.ones(3), photo, photo, style, floor=1.01, bound=0.045)
     assert torch.equal(x, strokes) and torch.equal(canvas, torch.ones(3))
+
+
+def test_toward_a_grey_style_a_grey_painting_stays_grey(painting):
+    brush, strokes, _, style = painting  # the case: no stroke takes a hue of its own
+    grey = style.mean(0, keepdim=True).expand(3, -1, -1)
+    spread = style_spread(grey)
+    assert torch.allclose(spread / spread[0, 0], torch.diag(torch.tensor([1.0, 0, 0])), atol=2e-3)  # L* alone
+    strokes = strokes.clone()
+    shade = strokes[:, list(brush.color)].reshape(len(strokes), -1, 3).mean(-1)
+    strokes[:, list(brush.color)] = shade.repeat_interleave(3, 1)
+    photo = paint_canvas(brush, strokes, HEIGHT, WIDTH)
+    floor = 0.9 * luminance_ssim(photo, photo)
+    x, canvas = refine_colors(brush, strokes, torch.ones(3), photo, photo, grey, floor, 0.045)
+    before, after = (rgb_to_lab(colors(brush, s, c)) for s, c in ((strokes, torch.ones(3)), (x, canvas)))
+    assert (after[:, 0] - before[:, 0]).abs().max() > 0.01  # the lightness moved
+    assert after[:, 1:].abs().max() < 5e-3  # a* and b* within 0.5 ΔE of grey: unseen
+
+
+def test_the_ceiling_searches_past_colour_mode_within_the_targets(painting):
+    brush, strokes, photo, style = painting  # photo: the plain painting itself, on white
+    shared = Recoloring.fit(photo, style)
+    floor = 0.9 * luminance_ssim(photo, photo)
+    x, canvas = refine_colors(brush, shared.strokes(brush, strokes), shared(torch.ones(3)), photo, photo, style, floor,
+                              0.045)
+    styled = paint_canvas(brush, x, HEIGHT, WIDTH, tuple(canvas.tolist()))
+    drop = 1 - color_distance(styled, style) / color_distance(photo, style)
+    assert ceiling(brush, strokes, x, hex_color(canvas), photo, style, "white") >= drop - 0.01  # hex: 8-bit canvas

@@ -31,7 +31,7 @@ from nsp.style.measures import coherence, luminance_ssim
 from nsp.style.recolor import alike_pairs, psd_sqrt
 
 STEPS = 200  # Adam steps on the colours' offsets
-RATE = 0.01  # their learning rate, in standard deviations of the style's colours
+RATE = 0.01  # their learning rate: in the style's standard deviations, or in L*a*b* / 100 where free
 PIXELS = 2048  # seeded pixels among which the alike pairs are found, and whose colours a step compares
 PAIRS = 20000  # the alike pairs a step holds together, drawn afresh
 PROJECTIONS = 32  # sliced Wasserstein directions a step draws
@@ -111,18 +111,22 @@ def with_colors(brush: Brush, strokes: Tensor, table: Tensor) -> tuple[Tensor, T
 
 
 def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, photo: Tensor, style: Tensor,
-                  floor: float, bound: float, seed: int = 1) -> tuple[Tensor, Tensor]:
+                  floor: float, bound: float, *, spread: Tensor | None = None, steps: int = STEPS,
+                  margin: float = MARGIN, tighten: float = 1.0, seed: int = 1) -> tuple[Tensor, Tensor]:
     """Every colour of the painting ``strokes`` (N, d) on the canvas colour ``canvas`` (3,) refined
     toward ``style``'s colours (3, h, w): the painting's luminance SSIM to ``photo`` (3, H, W)
     stays ≥ ``floor``, and colours within :data:`~nsp.style.measures.NEAR` of each other in
     ``plain`` (3, H, W, the painting before any recolouring) end up ≤ ``bound`` apart on average.
-    Each colour moves by an offset in L*a*b* along the style's own spread of colours (offset =
-    Σ½·u, Σ the covariance of the style's colours): strokes part only in the directions the style's
-    colours vary in, so toward a grey style no stroke takes a hue.
+    Each colour moves by an offset in L*a*b* along ``spread`` (3, 3; offset = spread·u): by default
+    the style's own spread of colours (:func:`style_spread`), so strokes part only in the directions
+    the style's colours vary in and toward a grey style no stroke takes a hue; the identity frees
+    them. ``steps`` Adam steps aim ``margin`` (a share) inside each bound, with penalties that grow
+    linearly to ``tighten`` × :data:`PENALTY` by the last step (more than 1: the iterates end nearer
+    the bounds' edge).
     Returns the strokes and canvas colour of the best iterate within both bounds, or the ones given
     if none is nearer the style's colours. The iterates are judged on pixels and directions drawn
     with ``seed``, the steps' draws with ``seed`` + 1 (the measures of
-    :mod:`nsp.style.measures` use seed 0: keep it apart).
+    :mod:`nsp.style.measures` use seed 0: keep it apart, but to search on the measures themselves).
     """
     generator = torch.Generator().manual_seed(seed + 1)
     height, width = photo.shape[1:]
@@ -132,7 +136,7 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
     styles = styles[None, :, :, None]
     photo_lightness = rgb_to_lab(photo.detach().float(), dim=0)[:1]
     first, second = alike_pairs(plain.detach().flatten(1).T.float(), PIXELS, generator)
-    aim_floor, aim_bound = floor + MARGIN * (1 - floor), (1 - MARGIN) * bound
+    aim_floor, aim_bound = floor + margin * (1 - floor), (1 - margin) * bound
 
     def paint(table: Tensor) -> Tensor:
         return (basis @ table).T.reshape(3, height, width)
@@ -146,24 +150,25 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
 
     start = colors(brush, strokes, canvas).float()
     scale = max(float(distance(paint(start), torch.Generator().manual_seed(seed), JUDGE)), 1e-6)  # 0: the style's own colours
-    spread_of_style = psd_sqrt(torch.cov(styles[0, :, :, 0].double()) + 1e-8 * torch.eye(3, dtype=torch.float64)).float()
-    offsets = torch.zeros_like(start).requires_grad_(True)  # in the style's standard deviations
+    spread = style_spread(style) if spread is None else spread.float()
+    offsets = torch.zeros_like(start).requires_grad_(True)
     optimizer = torch.optim.Adam([offsets], lr=RATE)
 
     def current() -> Tensor:
-        return lab_to_rgb(rgb_to_lab(start) + offsets @ spread_of_style.T).clamp(0, 1)
+        return lab_to_rgb(rgb_to_lab(start) + offsets @ spread.T).clamp(0, 1)
 
     best = (scale, start)
-    for step in range(1, STEPS + 1):
+    for step in range(1, steps + 1):
         table = current()
         image = paint(table)
         pick = torch.randint(len(first), (min(len(first), PAIRS),), generator=generator)
-        spread = ((image.flatten(1)[:, first[pick]] - image.flatten(1)[:, second[pick]]).norm(dim=0).mean()
+        parted = ((image.flatten(1)[:, first[pick]] - image.flatten(1)[:, second[pick]]).norm(dim=0).mean()
                   if len(first) else torch.zeros(()))
         structure = ssim(rgb_to_lab(image, dim=0)[:1], photo_lightness)
         compared = torch.randperm(height * width, generator=generator)[:PIXELS]
-        loss = distance(image, generator, PROJECTIONS, compared) / scale + PENALTY * (
-            F.relu(aim_floor - structure) + F.relu(spread - aim_bound))
+        penalty = PENALTY * (1 + (tighten - 1) * step / steps)
+        loss = distance(image, generator, PROJECTIONS, compared) / scale + penalty * (
+            F.relu(aim_floor - structure) + F.relu(parted - aim_bound))
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
@@ -176,3 +181,9 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
                     best = (score, table)
     return with_colors(brush, strokes, best[1])
 
+
+def style_spread(style: Tensor) -> Tensor:
+    """The directions and extents in which the colours of ``style`` (3, h, w) vary, in L*a*b* / 100
+    (3, 3): Σ½, Σ their covariance."""
+    lab = rgb_to_lab(style.detach().float(), dim=0).flatten(1).double()
+    return psd_sqrt(torch.cov(lab) + 1e-8 * torch.eye(3, dtype=torch.float64)).float()
