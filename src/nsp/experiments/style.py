@@ -36,6 +36,7 @@ TARGETS = {"color_distance_drop": 0.5, "coherence": 0.05, "ssim_ratio": 0.9}  # 
 CEILING_STEPS = 600  # the search for the ceiling: steps from each of its two starts
 CEILING_MARGIN = 0.02  # it aims this share inside the two other targets
 CEILING_TIGHTEN = 10.0  # and its penalties grow tenfold, to end at their edge
+MEASURED = 256  # it judges its iterates on the colour distance's own directions (nsp.style.measures)
 COLUMNS = ("color_distance", "color_distance_drop", "coherence", "luminance_ssim", "ssim_ratio", "style_loss",
            "texture_distance")
 
@@ -98,12 +99,14 @@ def ceiling(brush: Brush, strokes: Tensor, styled: Tensor, canvas: str, photo: T
     floor = TARGETS["ssim_ratio"] * luminance_ssim(plain, photo)
     drops = [0.0]  # the plain colours meet both other targets
     for x, colour in ((strokes, background), (styled, canvas)):
-        found, colour = refine_colors(brush, x, torch.tensor(parse_color(colour)), plain, photo, style, floor,
-                                      TARGETS["coherence"], spread=torch.eye(3), steps=CEILING_STEPS,
-                                      margin=CEILING_MARGIN, tighten=CEILING_TIGHTEN, seed=0)
-        image = paint_canvas(brush, found, height, width, tuple(colour.tolist()))
-        if luminance_ssim(image, photo) >= floor and coherence(plain, image) <= TARGETS["coherence"]:
-            drops.append(1 - color_distance(image, style) / start)
+        given = x, torch.tensor(parse_color(colour))
+        found = refine_colors(brush, *given, plain, photo, style, floor, TARGETS["coherence"],
+                              spread=torch.eye(3), steps=CEILING_STEPS, margin=CEILING_MARGIN,
+                              tighten=CEILING_TIGHTEN, judge=MEASURED, seed=0)
+        for candidate, color in (given, found):  # the start too: it may meet both already
+            image = paint_canvas(brush, candidate, height, width, tuple(color.tolist()))
+            if luminance_ssim(image, photo) >= floor and coherence(plain, image) <= TARGETS["coherence"]:
+                drops.append(1 - color_distance(image, style) / start)
     return max(drops)
 
 

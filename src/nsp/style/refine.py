@@ -35,7 +35,7 @@ RATE = 0.01  # their learning rate: in the style's standard deviations, or in L*
 PIXELS = 2048  # seeded pixels among which the alike pairs are found, and whose colours a step compares
 PAIRS = 20000  # the alike pairs a step holds together, drawn afresh
 PROJECTIONS = 32  # sliced Wasserstein directions a step draws
-JUDGE = 64  # the fixed directions the iterates are compared on (every pixel), every CHECK steps
+JUDGE = 64  # the fixed directions the iterates are compared on, every CHECK steps
 CHECK = 20
 PENALTY = 10.0  # a bound's excess against the colour distance, relative to the start's
 MARGIN = 0.1  # the steps aim this share inside each bound
@@ -112,7 +112,8 @@ def with_colors(brush: Brush, strokes: Tensor, table: Tensor) -> tuple[Tensor, T
 
 def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, photo: Tensor, style: Tensor,
                   floor: float, bound: float, *, spread: Tensor | None = None, steps: int = STEPS,
-                  margin: float = MARGIN, tighten: float = 1.0, seed: int = 1) -> tuple[Tensor, Tensor]:
+                  margin: float = MARGIN, tighten: float = 1.0, judge: int = JUDGE,
+                  seed: int = 1) -> tuple[Tensor, Tensor]:
     """Every colour of the painting ``strokes`` (N, d) on the canvas colour ``canvas`` (3,) refined
     toward ``style``'s colours (3, h, w): the painting's luminance SSIM to ``photo`` (3, H, W)
     stays ≥ ``floor``, and colours within :data:`~nsp.style.measures.NEAR` of each other in
@@ -124,8 +125,8 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
     linearly to ``tighten`` × :data:`PENALTY` by the last step (more than 1: the iterates end nearer
     the bounds' edge).
     Returns the strokes and canvas colour of the best iterate within both bounds, or the ones given
-    if none is nearer the style's colours. The iterates are judged on pixels and directions drawn
-    with ``seed``, the steps' draws with ``seed`` + 1 (the measures of
+    if none is nearer the style's colours. The iterates are judged on every pixel, on ``judge``
+    directions and coherence's pixels drawn with ``seed``; the steps' draws use ``seed`` + 1 (the measures of
     :mod:`nsp.style.measures` use seed 0: keep it apart, but to search on the measures themselves).
     """
     generator = torch.Generator().manual_seed(seed + 1)
@@ -149,7 +150,7 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
         return sliced_wasserstein(lab[None, :, pixels, None], sampled, projections, draws)
 
     start = colors(brush, strokes, canvas).float()
-    scale = max(float(distance(paint(start), torch.Generator().manual_seed(seed), JUDGE)), 1e-6)  # 0: the style's own colours
+    scale = max(float(distance(paint(start), torch.Generator().manual_seed(seed), judge)), 1e-6)  # 0: the style's own colours
     spread = style_spread(style) if spread is None else spread.float()
     offsets = torch.zeros_like(start).requires_grad_(True)
     optimizer = torch.optim.Adam([offsets], lr=RATE)
@@ -176,7 +177,7 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
             with torch.no_grad():
                 table = current()
                 image = paint(table)
-                score = float(distance(image, torch.Generator().manual_seed(seed), JUDGE))
+                score = float(distance(image, torch.Generator().manual_seed(seed), judge))
                 if score < best[0] and luminance_ssim(image, photo) >= floor and not coherence(plain, image, seed=seed) > bound:
                     best = (score, table)
     return with_colors(brush, strokes, best[1])
