@@ -18,6 +18,7 @@ from hydra.utils import instantiate
 import nsp.painter.schema  # noqa: F401  (registers ``paint_schema``)
 from nsp.brushes import get_brush
 from nsp.engine import paint_canvas
+from nsp.errors import BadInput
 from nsp.experiments.style import meets_targets
 from nsp.painter.losses import PaintLoss
 from nsp.painter.painter import Painter
@@ -223,3 +224,13 @@ def test_missing_vgg_weights_is_one_clear_error(tmp_path):
     assert result.returncode != 0 and "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "VGG-19 weights not found" in lines[0] and "style.backbone=random" in lines[0]
+
+
+@pytest.mark.parametrize("override, named", [("task.modes=[colour]", "task.modes: colour unknown; expected some of"),
+                                             ("task.ceilings=maybe", "task.ceilings=maybe: expected true or false")])
+def test_a_study_refuses_a_bad_task_value_before_painting(tmp_path, override, named):
+    with initialize_config_dir(str(CONF / "paint"), version_base="1.3"):
+        cfg = compose("paint", overrides=["experiment=style_heldout", f"output_dir={tmp_path}", override])
+    with pytest.raises(BadInput, match=named):
+        instantiate(cfg.task)(cfg)
+    assert not (tmp_path / "pairs.json").exists()

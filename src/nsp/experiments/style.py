@@ -24,6 +24,7 @@ from torchvision.utils import make_grid
 
 from nsp.brushes import Brush
 from nsp.engine import paint_canvas, parse_color
+from nsp.errors import BadInput
 from nsp.io.export import write_json, write_png
 from nsp.painter.images import BUILTIN, load_image, resize
 from nsp.painter.run import prepare
@@ -98,13 +99,12 @@ def ceiling(brush: Brush, strokes: Tensor, styled: Tensor, canvas: str, photo: T
     start = color_distance(plain, style)
     floor = TARGETS["ssim_ratio"] * luminance_ssim(plain, photo)
     drops = [0.0]  # the plain colours meet both other targets
-    for x, colour in ((strokes, background), (styled, canvas)):
-        given = x, torch.tensor(parse_color(colour))
+    for given in ((strokes, torch.tensor(parse_color(background))), (styled, torch.tensor(parse_color(canvas)))):
         found = refine_colors(brush, *given, plain, photo, style, floor, TARGETS["coherence"],
                               spread=torch.eye(3), steps=CEILING_STEPS, margin=CEILING_MARGIN,
                               tighten=CEILING_TIGHTEN, judge=MEASURED, seed=0)
-        for candidate, color in (given, found):  # the start too: it may meet both already
-            image = paint_canvas(brush, candidate, height, width, tuple(color.tolist()))
+        for candidate, colour in (given, found):  # the start too: it may meet both already
+            image = paint_canvas(brush, candidate, height, width, tuple(colour.tolist()))
             if luminance_ssim(image, photo) >= floor and coherence(plain, image) <= TARGETS["coherence"]:
                 drops.append(1 - color_distance(image, style) / start)
     return max(drops)
@@ -134,7 +134,9 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
     stylized toward itself.
     """
     if unknown := set(modes) - set(MODES):
-        raise ValueError(f"task.modes: {', '.join(sorted(unknown))} unknown; expected some of {', '.join(MODES)}")
+        raise BadInput(f"task.modes: {', '.join(sorted(unknown))} unknown; expected some of {', '.join(MODES)}")
+    if not isinstance(ceilings, bool):
+        raise BadInput(f"task.ceilings={ceilings}: expected true or false")
     start = time.perf_counter()
     if cfg.threads:
         torch.set_num_threads(cfg.threads)  # as a painting does: the same numbers in a run and in a sweep
