@@ -125,11 +125,11 @@ def test_the_recolouring_goes_as_far_as_structure_and_coherence_allow(scene):
     def painted(recoloring):
         return draw(brush, recoloring.strokes(brush, strokes), canvas_color(recoloring, "white"))
 
-    kept = recolor(brush, strokes, target, style[0], 0.0)  # β 0 keeps the lightness: the start alone
+    kept = recolor(brush, strokes, painting, target, style[0], 0.0)  # β 0 keeps the lightness: the start alone
     assert kept.lightness.equal(Recoloring.fit(painting, style[0]).lightness) and kept.hue.abs().max() == 0
     distance = []
     for weight in (0.25, 0.5, 1.0):
-        canvas = painted(recolor(brush, strokes, target, style[0], weight))
+        canvas = painted(recolor(brush, strokes, painting, target, style[0], weight))
         assert luminance_ssim(canvas, target) >= (1 - STRUCTURE * weight) * plain  # checked on the strokes
         assert coherence(painting, canvas, seed=1) <= COHERENT
         distance.append(color_distance(canvas, style[0]))
@@ -139,7 +139,7 @@ def test_the_recolouring_goes_as_far_as_structure_and_coherence_allow(scene):
 def test_full_mode_moves_the_texture_toward_the_style_on_a_held_out_network(scene, color_mode):
     brush, strokes, target, style = scene
     plain = color_mode[0]
-    shared = recolor(brush, strokes, target, style[0], 0.5)  # where the style steps start
+    shared = recolor(brush, strokes, plain, target, style[0], 0.5)  # where the style steps start
     start = draw(brush, shared.strokes(brush, strokes), canvas_color(shared, "white"))
     full = draw(brush, *run(scene, "full", steps=40))
     # the held-out filters (another seed than the style steps') see the texture move, beyond the recolouring

@@ -30,7 +30,7 @@ from nsp.painter.images import BUILTIN, load_image, resize
 from nsp.painter.run import prepare
 from nsp.painter.stylize import MODES, stylize
 from nsp.style import StyleLoss
-from nsp.style.refine import refine_colors
+from nsp.style.refine import color_basis, refine_colors
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
 
 TARGETS = {"color_distance_drop": 0.5, "coherence": 0.05, "ssim_ratio": 0.9}  # colour mode: ≥, ≤, ≥
@@ -99,10 +99,11 @@ def ceiling(brush: Brush, strokes: Tensor, styled: Tensor, canvas: str, photo: T
     start = color_distance(plain, style)
     floor = TARGETS["ssim_ratio"] * luminance_ssim(plain, photo)
     drops = [0.0]  # the plain colours meet both other targets
+    basis = color_basis(brush, strokes, height, width)  # colour mode keeps the shapes: one basis for both starts
     for given in ((strokes, torch.tensor(parse_color(background))), (styled, torch.tensor(parse_color(canvas)))):
         found = refine_colors(brush, *given, plain, photo, style, floor, TARGETS["coherence"],
                               spread=torch.eye(3), steps=CEILING_STEPS, margin=CEILING_MARGIN,
-                              tighten=CEILING_TIGHTEN, judge=MEASURED, seed=0)
+                              tighten=CEILING_TIGHTEN, judge=MEASURED, seed=0, basis=basis)
         for candidate, colour in (given, found):  # the start too: it may meet both already
             image = paint_canvas(brush, candidate, height, width, tuple(colour.tolist()))
             if luminance_ssim(image, photo) >= floor and coherence(plain, image) <= TARGETS["coherence"]:

@@ -71,17 +71,17 @@ def stylize(
     if mode == "full" and loss is None:
         raise ValueError("style.mode=full: the style steps need the style loss (loss=StyleLoss(style[None], …))")
     _, height, width = target.shape
-    recoloring = recolor(brush, strokes, target, style, weight, background)
-    x, recoloured = recoloring.strokes(brush, strokes), canvas_color(recoloring, background)
+    with torch.no_grad():
+        plain = paint_canvas(brush, strokes, height, width, background)
+    recoloring = recolor(brush, strokes, plain, target, style, weight, background)
+    x = recoloring.strokes(brush, strokes)
     if mode == "color":
         if weight == 0:
-            return x, recoloured
-        with torch.no_grad():
-            plain = paint_canvas(brush, strokes, height, width, background)
-        x, canvas = refine_colors(brush, x, torch.tensor(parse_color(recoloured)), plain, target, style,
+            return x, canvas_color(recoloring, background)
+        x, canvas = refine_colors(brush, x, recoloring(torch.tensor(parse_color(background))), plain, target, style,
                                   floor(plain, target, weight), COHERENT)
         return x, hex_color(canvas)
-    background = recoloured
+    background = canvas_color(recoloring, background)
     target = recoloring(target, dim=0)[None]  # the photo in the style's colours
     x.requires_grad_(True)
     opt = optimizer([x])
@@ -118,11 +118,12 @@ def floor(plain: Tensor, target: Tensor, weight: float) -> float:
     return (1 - STRUCTURE * weight) * luminance_ssim(plain, target)
 
 
-def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight: float,
+def recolor(brush: Brush, strokes: Tensor, painting: Tensor, target: Tensor, style: Tensor, weight: float,
             background: str = "white") -> Recoloring:
     """The shared recolouring of the painting ``strokes`` (N, d) of ``target`` (3, H, W) toward
-    ``style`` (3, h, w), under a floor of (1 − STRUCTURE·``weight``) × the plain painting's
-    luminance SSIM to ``target`` and a bound of :data:`COHERENT` on how far alike colours part.
+    ``style`` (3, h, w), ``painting`` (3, H, W) their painting on ``background``, under a floor of
+    (1 − STRUCTURE·``weight``) × its luminance SSIM to ``target`` and a bound of :data:`COHERENT` on
+    how far alike colours part.
 
     From the Gaussian start (:meth:`Recoloring.fit`), two ends: the start refined on the painting's
     pixels (:meth:`Recoloring.refine`), and the style's tones matched
@@ -134,8 +135,6 @@ def recolor(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor, weight
     if weight < 0:
         raise ValueError(f"style.weight={weight}: expected β_sty ≥ 0")
     _, height, width = target.shape
-    with torch.no_grad():
-        painting = paint_canvas(brush, strokes, height, width, background)
     start = Recoloring.fit(painting, style)
     if weight == 0:
         return start

@@ -112,8 +112,8 @@ def with_colors(brush: Brush, strokes: Tensor, table: Tensor) -> tuple[Tensor, T
 
 def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, photo: Tensor, style: Tensor,
                   floor: float, bound: float, *, spread: Tensor | None = None, steps: int = STEPS,
-                  margin: float = MARGIN, tighten: float = 1.0, judge: int = JUDGE,
-                  seed: int = 1) -> tuple[Tensor, Tensor]:
+                  margin: float = MARGIN, tighten: float = 1.0, judge: int = JUDGE, seed: int = 1,
+                  basis: Tensor | None = None) -> tuple[Tensor, Tensor]:
     """Every colour of the painting ``strokes`` (N, d) on the canvas colour ``canvas`` (3,) refined
     toward ``style``'s colours (3, h, w): the painting's luminance SSIM to ``photo`` (3, H, W)
     stays ≥ ``floor``, and colours within :data:`~nsp.style.measures.NEAR` of each other in
@@ -128,10 +128,11 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
     if none is nearer the style's colours. The iterates are judged on every pixel, on ``judge``
     directions and coherence's pixels drawn with ``seed``; the steps' draws use ``seed`` + 1 (the measures of
     :mod:`nsp.style.measures` use seed 0: keep it apart, but to search on the measures themselves).
+    ``basis`` is the painting's :func:`color_basis`, where already built for these shapes.
     """
     generator = torch.Generator().manual_seed(seed + 1)
     height, width = photo.shape[1:]
-    basis = color_basis(brush, strokes, height, width)
+    basis = color_basis(brush, strokes, height, width) if basis is None else basis
     styles = rgb_to_lab(style.detach().float(), dim=0).flatten(1)
     sampled = styles[:, torch.randperm(styles.shape[1], generator=generator)[:PIXELS]][None, :, :, None]
     styles = styles[None, :, :, None]
