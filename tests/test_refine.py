@@ -67,6 +67,20 @@ def test_refined_colours_come_nearer_the_style_within_both_bounds(painting):
     assert torch.equal(x[:, shape], strokes[:, shape])
 
 
+def test_iterates_past_a_bound_are_taken_back_toward_the_start_not_dropped(painting):
+    brush, strokes, photo, style = painting
+    shared = Recoloring.fit(photo, style)
+    start, canvas = shared.strokes(brush, strokes), shared(torch.ones(3))
+    before = paint_canvas(brush, start, HEIGHT, WIDTH, tuple(canvas.tolist()))
+    floor = 0.9 * luminance_ssim(photo, photo)
+    # aimed past both bounds, the steps leave them by the first check: kept whole, no iterate would
+    # be within both and the colours would come back as given; a share of each is
+    x, canvas = refine_colors(brush, start, canvas, photo, photo, style, floor, 0.045, margin=-1.0)
+    refined = paint_canvas(brush, x, HEIGHT, WIDTH, tuple(canvas.tolist()))
+    assert color_distance(refined, style) < 0.7 * color_distance(before, style)
+    assert luminance_ssim(refined, photo) >= floor and coherence(photo, refined, seed=1) <= 0.045
+
+
 def test_with_no_room_in_the_bounds_the_colours_come_back_as_given(painting):
     brush, strokes, photo, style = painting
     x, canvas = refine_colors(brush, strokes, torch.ones(3), photo, photo, style, floor=1.01, bound=0.045)

@@ -35,6 +35,7 @@ from nsp.style.measures import coherence, color_distance, luminance_ssim, textur
 
 TARGETS = {"color_distance_drop": 0.5, "coherence": 0.05, "ssim_ratio": 0.9}  # colour mode: ≥, ≤, ≥
 CEILING_STEPS = 600  # the search for the ceiling: steps from each of its two starts
+CEILING_RATE = 0.01  # at this rate, in L*a*b* / 100
 CEILING_MARGIN = 0.02  # it aims this share inside the two other targets
 CEILING_TIGHTEN = 10.0  # and its penalties grow tenfold, to end at their edge
 MEASURED = 256  # it judges its iterates on the colour distance's own directions (nsp.style.measures)
@@ -102,7 +103,7 @@ def ceiling(brush: Brush, strokes: Tensor, styled: Tensor, canvas: str, photo: T
     basis = color_basis(brush, strokes, height, width)  # colour mode keeps the shapes: one basis for both starts
     for given in ((strokes, torch.tensor(parse_color(background))), (styled, torch.tensor(parse_color(canvas)))):
         found = refine_colors(brush, *given, plain, photo, style, floor, TARGETS["coherence"],
-                              spread=torch.eye(3), steps=CEILING_STEPS, margin=CEILING_MARGIN,
+                              spread=torch.eye(3), steps=CEILING_STEPS, rate=CEILING_RATE, margin=CEILING_MARGIN,
                               tighten=CEILING_TIGHTEN, judge=MEASURED, seed=0, basis=basis)
         for candidate, colour in (given, found):  # the start too: it may meet both already
             image = paint_canvas(brush, candidate, height, width, tuple(colour.tolist()))

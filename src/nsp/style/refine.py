@@ -31,12 +31,13 @@ from nsp.style.measures import coherence, luminance_ssim
 from nsp.style.recolor import alike_pairs, psd_sqrt
 
 STEPS = 200  # Adam steps on the colours' offsets
-RATE = 0.01  # their learning rate: in the style's standard deviations, or in L*a*b* / 100 where free
+RATE = 0.04  # their learning rate, in the style's standard deviations
 PIXELS = 2048  # seeded pixels among which the alike pairs are found, and whose colours a step compares
 PAIRS = 20000  # the alike pairs a step holds together, drawn afresh
 PROJECTIONS = 32  # sliced Wasserstein directions a step draws
-JUDGE = 64  # the fixed directions the iterates are compared on, every CHECK steps
+JUDGE = 256  # the fixed directions the iterates are compared on, every CHECK steps
 CHECK = 20
+BACK = 10  # an iterate outside a bound is taken back toward the start, 1/BACK of the way at a time
 PENALTY = 10.0  # a bound's excess against the colour distance, relative to the start's
 MARGIN = 0.1  # the steps aim this share inside each bound
 TILE = 8  # the engine's tile (px) when probing
@@ -112,7 +113,7 @@ def with_colors(brush: Brush, strokes: Tensor, table: Tensor) -> tuple[Tensor, T
 
 def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, photo: Tensor, style: Tensor,
                   floor: float, bound: float, *, spread: Tensor | None = None, steps: int = STEPS,
-                  margin: float = MARGIN, tighten: float = 1.0, judge: int = JUDGE, seed: int = 1,
+                  rate: float = RATE, margin: float = MARGIN, tighten: float = 1.0, judge: int = JUDGE, seed: int = 1,
                   basis: Tensor | None = None) -> tuple[Tensor, Tensor]:
     """Every colour of the painting ``strokes`` (N, d) on the canvas colour ``canvas`` (3,) refined
     toward ``style``'s colours (3, h, w): the painting's luminance SSIM to ``photo`` (3, H, W)
@@ -121,13 +122,15 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
     Each colour moves by an offset in L*a*b* along ``spread`` (3, 3; offset = spread·u): by default
     the style's own spread of colours (:func:`style_spread`), so strokes part only in the directions
     the style's colours vary in and toward a grey style no stroke takes a hue; the identity frees
-    them. ``steps`` Adam steps aim ``margin`` (a share) inside each bound, with penalties that grow
-    linearly to ``tighten`` × :data:`PENALTY` by the last step (more than 1: the iterates end nearer
-    the bounds' edge).
-    Returns the strokes and canvas colour of the best iterate within both bounds, or the ones given
-    if none is nearer the style's colours. The iterates are judged on every pixel, on ``judge``
-    directions and coherence's pixels drawn with ``seed``; the steps' draws use ``seed`` + 1 (the measures of
-    :mod:`nsp.style.measures` use seed 0: keep it apart, but to search on the measures themselves).
+    them. ``steps`` Adam steps at ``rate`` aim ``margin`` (a share) inside each bound, with
+    penalties that grow linearly to ``tighten`` × :data:`PENALTY` by the last step (more than 1:
+    the iterates end nearer the bounds' edge).
+    Every :data:`CHECK` steps the iterate is judged, or where it leaves a bound the largest share of
+    its offsets (in tenths, back toward the start) within both. Returns the strokes and canvas
+    colour of the best judged, or the ones given if none is nearer the style's colours. Judged on
+    every pixel, on ``judge`` directions and coherence's pixels drawn with ``seed``; the steps'
+    draws use ``seed`` + 1 (the measures of :mod:`nsp.style.measures` use seed 0: keep it apart,
+    but to search on the measures themselves).
     ``basis`` is the painting's :func:`color_basis`, where already built for these shapes.
     """
     generator = torch.Generator().manual_seed(seed + 1)
@@ -154,10 +157,10 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
     scale = max(float(distance(paint(start), torch.Generator().manual_seed(seed), judge)), 1e-6)  # 0: the style's own colours
     spread = style_spread(style) if spread is None else spread.float()
     offsets = torch.zeros_like(start).requires_grad_(True)
-    optimizer = torch.optim.Adam([offsets], lr=RATE)
+    optimizer = torch.optim.Adam([offsets], lr=rate)
 
-    def current() -> Tensor:
-        return lab_to_rgb(rgb_to_lab(start) + offsets @ spread.T).clamp(0, 1)
+    def current(share: float = 1.0) -> Tensor:
+        return lab_to_rgb(rgb_to_lab(start) + share * offsets @ spread.T).clamp(0, 1)
 
     best = (scale, start)
     for step in range(1, steps + 1):
@@ -176,11 +179,14 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
         optimizer.step()
         if step % CHECK == 0:
             with torch.no_grad():
-                table = current()
-                image = paint(table)
-                score = float(distance(image, torch.Generator().manual_seed(seed), judge))
-                if score < best[0] and luminance_ssim(image, photo) >= floor and not coherence(plain, image, seed=seed) > bound:
-                    best = (score, table)
+                for share in range(BACK, 0, -1):  # the nearest share of the offsets within both bounds
+                    table = current(share / BACK)
+                    image = paint(table)
+                    if luminance_ssim(image, photo) >= floor and not coherence(plain, image, seed=seed) > bound:
+                        score = float(distance(image, torch.Generator().manual_seed(seed), judge))
+                        if score < best[0]:
+                            best = (score, table)
+                        break
     return with_colors(brush, strokes, best[1])
 
 
