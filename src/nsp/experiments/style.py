@@ -26,6 +26,7 @@ from nsp.brushes import Brush
 from nsp.engine import paint_canvas, parse_color
 from nsp.errors import BadInput
 from nsp.io.export import write_json, write_png
+from nsp.painter.callbacks import ProgressBar
 from nsp.painter.images import BUILTIN, load_image, resize
 from nsp.painter.run import prepare
 from nsp.painter.stylize import MODES, stylize
@@ -145,32 +146,38 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows, tiles = [], []
-    for photo_name in photos:
-        spec = photo_spec(photo_name, out / "photos")
-        painter, photo, _, _ = prepare(OmegaConf.merge(cfg, {"image": spec, "style": {"image": None}}))
-        brush, loss = painter.brush, painter.loss
-        strokes = painter.paint(resize(photo, cfg.work_size), cfg.strokes)
-        photo = resize(photo, cfg.style.size)
-        height, width = photo.shape[1:]
-        plain = paint_canvas(brush, strokes, height, width, cfg.background)
-        for style_name in (s for s in styles if s != photo_name):
-            image = style_image(style_name, cfg.style.size)
-            style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
-            paintings, results = {"plain": plain}, {}
-            for mode in modes:
-                styled, canvas = results[mode] = stylize(
-                    brush, strokes, photo, image, loss, instantiate(cfg.optimizer), loss=style, weight=cfg.style.weight,
-                    steps=cfg.style.steps, mode=mode, background=cfg.background, softness=cfg.renderer.softness)
-                paintings[mode] = paint_canvas(brush, styled, height, width, canvas)
-            base = measure(plain, plain, photo, image, style)
-            for mode, painting in paintings.items():
-                row = measure(painting, plain, photo, image, style)
-                row["color_distance_drop"] = 1 - row["color_distance"] / base["color_distance"]
-                row["ssim_ratio"] = row["luminance_ssim"] / base["luminance_ssim"]
-                if ceilings and mode == "color" and not meets_targets(row):
-                    row["ceiling"] = ceiling(brush, strokes, *results[mode], photo, image, cfg.background)
-                rows.append({"photo": photo_name, "style": style_name, "mode": mode} | row)
-            tiles += [tile(x, cfg.style.size) for x in (photo, image, *paintings.values())]
+    pairs = sum(style != photo for photo in photos for style in styles)
+    with ProgressBar(pairs, cfg.progress, "pairs") as bar:
+        for photo_name in photos:
+            bar.advance(0, f"painting {photo_name}")
+            spec = photo_spec(photo_name, out / "photos")
+            painter, photo, _, _ = prepare(OmegaConf.merge(cfg, {"image": spec, "style": {"image": None}}))
+            brush, loss = painter.brush, painter.loss
+            strokes = painter.paint(resize(photo, cfg.work_size), cfg.strokes)
+            photo = resize(photo, cfg.style.size)
+            height, width = photo.shape[1:]
+            plain = paint_canvas(brush, strokes, height, width, cfg.background)
+            for style_name in (s for s in styles if s != photo_name):
+                bar.advance(0, f"{photo_name} × {style_name}")
+                image = style_image(style_name, cfg.style.size)
+                style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
+                paintings, results = {"plain": plain}, {}
+                for mode in modes:
+                    styled, canvas = results[mode] = stylize(
+                        brush, strokes, photo, image, loss, instantiate(cfg.optimizer), loss=style,
+                        weight=cfg.style.weight, steps=cfg.style.steps, mode=mode, background=cfg.background,
+                        softness=cfg.renderer.softness)
+                    paintings[mode] = paint_canvas(brush, styled, height, width, canvas)
+                base = measure(plain, plain, photo, image, style)
+                for mode, painting in paintings.items():
+                    row = measure(painting, plain, photo, image, style)
+                    row["color_distance_drop"] = 1 - row["color_distance"] / base["color_distance"]
+                    row["ssim_ratio"] = row["luminance_ssim"] / base["luminance_ssim"]
+                    if ceilings and mode == "color" and not meets_targets(row):
+                        row["ceiling"] = ceiling(brush, strokes, *results[mode], photo, image, cfg.background)
+                    rows.append({"photo": photo_name, "style": style_name, "mode": mode} | row)
+                tiles += [tile(x, cfg.style.size) for x in (photo, image, *paintings.values())]
+                bar.advance(1, f"{photo_name} × {style_name}")
     write_json(out / "pairs.json", {"pairs": rows})
     (out / "table.md").write_text(table(rows))
     grid_image = make_grid(torch.stack(tiles).clamp(0, 1), nrow=3 + len(modes), padding=2, pad_value=0.5)
