@@ -28,6 +28,7 @@ from nsp.errors import BadInput
 from nsp.io.export import write_json, write_png
 from nsp.painter.callbacks import ProgressBar
 from nsp.painter.images import BUILTIN, load_image, resize
+from nsp.painter.painter import Painter
 from nsp.painter.run import prepare
 from nsp.painter.stylize import MODES, stylize
 from nsp.style import StyleLoss
@@ -100,16 +101,17 @@ def ceiling(brush: Brush, strokes: Tensor, styled: Tensor, canvas: str, photo: T
     plain = paint_canvas(brush, strokes, height, width, background)
     start = color_distance(plain, style)
     floor = TARGETS["ssim_ratio"] * luminance_ssim(plain, photo)
-    drops = [0.0]  # the plain colours meet both other targets
     basis = color_basis(brush, strokes, height, width)  # colour mode keeps the shapes: one basis for both starts
-    for given in ((strokes, torch.tensor(parse_color(background))), (styled, torch.tensor(parse_color(canvas)))):
-        found = refine_colors(brush, *given, plain, photo, style, floor, TARGETS["coherence"],
-                              spread=torch.eye(3), steps=CEILING_STEPS, rate=CEILING_RATE, margin=CEILING_MARGIN,
-                              tighten=CEILING_TIGHTEN, judge=MEASURED, seed=0, basis=basis)
-        for candidate, colour in (given, found):  # the start too: it may meet both already
-            image = paint_canvas(brush, candidate, height, width, tuple(colour.tolist()))
-            if luminance_ssim(image, photo) >= floor and coherence(plain, image) <= TARGETS["coherence"]:
-                drops.append(1 - color_distance(image, style) / start)
+    found = [(styled, torch.tensor(parse_color(canvas)))]  # colour mode's own colours may meet both already
+    for given in ((strokes, torch.tensor(parse_color(background))), found[0]):
+        found.append(refine_colors(brush, *given, plain, photo, style, floor, TARGETS["coherence"],
+                                   spread=torch.eye(3), steps=CEILING_STEPS, rate=CEILING_RATE, margin=CEILING_MARGIN,
+                                   tighten=CEILING_TIGHTEN, judge=MEASURED, seed=0, basis=basis))
+    drops = [0.0]  # the plain colours meet both other targets
+    for candidate, colour in found:
+        image = paint_canvas(brush, candidate, height, width, tuple(colour.tolist()))
+        if luminance_ssim(image, photo) >= floor and coherence(plain, image) <= TARGETS["coherence"]:
+            drops.append(1 - color_distance(image, style) / start)
     return max(drops)
 
 
@@ -150,33 +152,15 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
     with ProgressBar(pairs, cfg.progress, "pairs") as bar:
         for photo_name in photos:
             bar.advance(0, f"painting {photo_name}")
-            spec = photo_spec(photo_name, out / "photos")
-            painter, photo, _, _ = prepare(OmegaConf.merge(cfg, {"image": spec, "style": {"image": None}}))
-            brush, loss = painter.brush, painter.loss
+            painter, photo, _, _ = prepare(OmegaConf.merge(cfg, {"image": photo_spec(photo_name, out / "photos"),
+                                                                 "style": {"image": None}}))
             strokes = painter.paint(resize(photo, cfg.work_size), cfg.strokes)
             photo = resize(photo, cfg.style.size)
-            height, width = photo.shape[1:]
-            plain = paint_canvas(brush, strokes, height, width, cfg.background)
             for style_name in (s for s in styles if s != photo_name):
                 bar.advance(0, f"{photo_name} × {style_name}")
-                image = style_image(style_name, cfg.style.size)
-                style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
-                paintings, results = {"plain": plain}, {}
-                for mode in modes:
-                    styled, canvas = results[mode] = stylize(
-                        brush, strokes, photo, image, loss, instantiate(cfg.optimizer), loss=style,
-                        weight=cfg.style.weight, steps=cfg.style.steps, mode=mode, background=cfg.background,
-                        softness=cfg.renderer.softness)
-                    paintings[mode] = paint_canvas(brush, styled, height, width, canvas)
-                base = measure(plain, plain, photo, image, style)
-                for mode, painting in paintings.items():
-                    row = measure(painting, plain, photo, image, style)
-                    row["color_distance_drop"] = 1 - row["color_distance"] / base["color_distance"]
-                    row["ssim_ratio"] = row["luminance_ssim"] / base["luminance_ssim"]
-                    if ceilings and mode == "color" and not meets_targets(row):
-                        row["ceiling"] = ceiling(brush, strokes, *results[mode], photo, image, cfg.background)
-                    rows.append({"photo": photo_name, "style": style_name, "mode": mode} | row)
-                tiles += [tile(x, cfg.style.size) for x in (photo, image, *paintings.values())]
+                pair, paintings = pair_rows(cfg, painter, strokes, photo, style_name, modes, ceilings)
+                rows += [{"photo": photo_name, "style": style_name, "mode": mode} | row for mode, row in pair.items()]
+                tiles += [tile(x, cfg.style.size) for x in paintings]
                 bar.advance(1, f"{photo_name} × {style_name}")
     write_json(out / "pairs.json", {"pairs": rows})
     (out / "table.md").write_text(table(rows))
@@ -185,6 +169,34 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
     metrics = summary(rows) | {"seconds": round(time.perf_counter() - start, 2), "strokes": cfg.strokes}
     write_json(out / "metrics.json", metrics)
     return metrics
+
+
+def pair_rows(cfg: DictConfig, painter: Painter, strokes: Tensor, photo: Tensor, style_name: str,
+              modes: tuple[str, ...], ceilings: bool) -> tuple[dict[str, dict], list[Tensor]]:
+    """The painting ``strokes`` (N, d) of ``photo`` (3, H, W, the style canvas) by ``painter``,
+    stylized toward ``style_name`` in each of ``modes``: the measures of the plain painting and of
+    each mode's (with any ``ceiling``, as :func:`grid` says), and the images of the grid's row:
+    photo, style, plain, then each mode's painting."""
+    brush = painter.brush
+    height, width = photo.shape[1:]
+    image = style_image(style_name, cfg.style.size)
+    style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
+    plain = paint_canvas(brush, strokes, height, width, cfg.background)
+    paintings, results = {"plain": plain}, {}
+    for mode in modes:
+        styled, canvas = results[mode] = stylize(
+            brush, strokes, photo, image, painter.loss, instantiate(cfg.optimizer), loss=style,
+            weight=cfg.style.weight, steps=cfg.style.steps, mode=mode, background=cfg.background,
+            softness=cfg.renderer.softness)
+        paintings[mode] = paint_canvas(brush, styled, height, width, canvas)
+    rows = {}
+    for mode, painting in paintings.items():  # the plain painting first: the others' base
+        row = rows[mode] = measure(painting, plain, photo, image, style)
+        row["color_distance_drop"] = 1 - row["color_distance"] / rows["plain"]["color_distance"]
+        row["ssim_ratio"] = row["luminance_ssim"] / rows["plain"]["luminance_ssim"]
+        if ceilings and mode == "color" and not meets_targets(row):
+            row["ceiling"] = ceiling(brush, strokes, *results[mode], photo, image, cfg.background)
+    return rows, [photo, image, *paintings.values()]
 
 
 def tile(image: Tensor, size: int) -> Tensor:

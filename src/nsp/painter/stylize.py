@@ -70,6 +70,8 @@ def stylize(
         raise ValueError(f"style.mode={mode}: expected one of {', '.join(MODES)}")
     if mode == "full" and loss is None:
         raise ValueError("style.mode=full: the style steps need the style loss (loss=StyleLoss(style[None], …))")
+    if weight < 0:
+        raise ValueError(f"style.weight={weight}: expected β_sty ≥ 0")
     _, height, width = target.shape
     with torch.no_grad():
         plain = paint_canvas(brush, strokes, height, width, background)
@@ -130,10 +132,8 @@ def recolor(brush: Brush, strokes: Tensor, painting: Tensor, target: Tensor, sty
     (:meth:`Recoloring.matched_tones`). Each is checked on the painted strokes, where translucent
     strokes blend recoloured colours, and where a bound fails it is taken back toward the start,
     1/STEPS of the way at a time. Of the two, the one whose painting is nearer the style's colours
-    wins. ``weight`` 0 keeps the lightness: the start alone.
+    wins. ``weight`` (β_sty ≥ 0) 0 keeps the lightness: the start alone.
     """
-    if weight < 0:
-        raise ValueError(f"style.weight={weight}: expected β_sty ≥ 0")
     _, height, width = target.shape
     start = Recoloring.fit(painting, style)
     if weight == 0:
