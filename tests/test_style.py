@@ -25,7 +25,7 @@ from nsp.style import (
     vgg19_features,
 )
 from nsp.style.color import lab_to_rgb, rgb_to_lab
-from nsp.style.measures import HELD_OUT_SEED, coherence, color_distance, luminance_ssim, texture_distance
+from nsp.style.measures import HELD_OUT_SEED, NEAR, coherence, color_distance, luminance_ssim, texture_distance
 from nsp.style.recolor import KNOTS, STRETCH, gaussian_transport
 
 S = 48  # canvas side in pixels: small, so optimization tests stay fast on a CPU
@@ -279,6 +279,19 @@ def test_recoloring_strokes_changes_colours_alone(astronaut, name):
     assert torch.equal(out[:, others], strokes[:, others])
     torch.testing.assert_close(out[:, color[:3]], recoloring(strokes[:, color[:3]]))  # one map for every stroke
     assert out.min() >= 0 and out.max() <= 1
+
+
+def test_coherence_is_exact_where_its_samples_cover_the_painting(astronaut):
+    g = torch.Generator().manual_seed(0)
+    noisy = (astronaut + 0.05 * torch.randn(astronaut.shape, generator=g)).clamp(0, 1)
+    before, after = (x.flatten(1).T.double() for x in (astronaut, noisy))
+    alike = torch.cdist(before, before) < NEAR
+    alike.fill_diagonal_(False)
+    every_pair = float(torch.cdist(after, after)[alike].mean())  # all S² pixels, each pair both ways
+    assert coherence(astronaut, noisy) == pytest.approx(every_pair, rel=1e-5)
+    assert coherence(astronaut, noisy, seed=1) == pytest.approx(every_pair, rel=1e-5)  # every pixel: no sampling
+    sampled = [coherence(astronaut, noisy, samples=S * S // 4, seed=seed) for seed in range(3)]
+    assert len(set(sampled)) == 3 and all(abs(x - every_pair) < 0.01 for x in sampled)  # a quarter: an estimate
 
 
 def test_measures_of_a_stylized_painting(astronaut):

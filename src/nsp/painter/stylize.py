@@ -30,7 +30,7 @@ from nsp.engine import paint_canvas, parse_color
 from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
 from nsp.style.refine import refine_colors
-from nsp.style.measures import coherence, color_distance, luminance_ssim
+from nsp.style.measures import SAMPLES, alike_pairs, color_distance, luminance_ssim, parted
 
 MODES = ("full", "color")
 STRUCTURE = 0.2  # the share of luminance SSIM the recolouring may give up, per unit of β_sty
@@ -140,6 +140,7 @@ def recolor(brush: Brush, strokes: Tensor, painting: Tensor, target: Tensor, sty
         return start
     least = floor(painting, target, weight)
     ends = start.refine(painting, target, style, least, COHERENT), start.matched_tones(painting, style)
+    alike = alike_pairs(painting.flatten(1).T.float(), SAMPLES, torch.Generator().manual_seed(1))  # as coherence pairs
     kept = []  # (colour distance, recolouring) within both bounds
     with torch.no_grad():
         for end in ends:
@@ -147,7 +148,7 @@ def recolor(brush: Brush, strokes: Tensor, painting: Tensor, target: Tensor, sty
                 recoloring = start.toward(end, share / STEPS)
                 canvas = paint_canvas(brush, recoloring.strokes(brush, strokes), height, width,
                                       canvas_color(recoloring, background))
-                apart = coherence(painting, canvas, seed=1)  # NaN where no two colours are alike: nothing to part
+                apart = parted(canvas, *alike)  # NaN where no two colours are alike: nothing to part
                 if luminance_ssim(canvas, target) >= least and not apart > COHERENT:
                     kept.append((color_distance(canvas, style, seed=1), recoloring))
                     break

@@ -20,6 +20,7 @@ from nsp.style.features import random_features
 from nsp.style.losses import sliced_wasserstein, style_loss
 
 NEAR = 0.03  # RGB distance under which two colours of the plain painting count as alike
+SAMPLES = 8192  # the pixels coherence pairs up: all of them on a canvas up to 90×90 (the studies' 80 px)
 HELD_OUT_SEED = 1000  # the held-out network's filters; the style steps use nsp.paint's seed
 
 
@@ -31,17 +32,29 @@ def color_distance(image: Tensor, style: Tensor, projections: int = 256, seed: i
     return float(sliced_wasserstein(*lab, projections, generator))
 
 
-def coherence(plain: Tensor, styled: Tensor, near: float = NEAR, samples: int = 2048, seed: int = 0) -> float:
-    """Mean RGB distance in ``styled`` between the pixels whose colours lay within ``near`` of each
-    other in ``plain`` (same size), over all pairs of ``samples`` seeded pixels; NaN if no pair is."""
+def coherence(plain: Tensor, styled: Tensor, samples: int = SAMPLES, seed: int = 0) -> float:
+    """Mean RGB distance in ``styled`` between the pixels whose colours lay within :data:`NEAR` of
+    each other in ``plain`` (same size), over all pairs of ``samples`` seeded pixels (every pixel,
+    where the painting has no more: then exact, whatever the seed); NaN if no pair is."""
     if plain.shape != styled.shape:
         raise ValueError(f"coherence compares one painting twice: got {tuple(plain.shape)} and {tuple(styled.shape)}")
-    generator = torch.Generator().manual_seed(seed)
-    pick = torch.randperm(plain[0].numel(), generator=generator)[:samples]
-    before, after = (x.detach().flatten(1)[:, pick].T.double() for x in (plain, styled))
-    alike = torch.cdist(before, before) < near
-    alike.fill_diagonal_(False)
-    return float(torch.cdist(after, after)[alike].mean())
+    pairs = alike_pairs(plain.detach().flatten(1).T.float(), samples, torch.Generator().manual_seed(seed))
+    return float(parted(styled.detach().double(), *pairs))
+
+
+def alike_pairs(colors: Tensor, rows: int, generator: torch.Generator) -> tuple[Tensor, Tensor]:
+    """Indices (P,), (P,) of the pairs among ``rows`` seeded rows of ``colors`` (N, 3; all N rows
+    where ``rows`` ≥ N) that lie within :data:`NEAR` of each other, each pair once."""
+    pick = torch.randperm(len(colors), generator=generator)[:rows]
+    first, second = (torch.cdist(colors[pick], colors[pick]) < NEAR).triu(1).nonzero().unbind(1)
+    return pick[first], pick[second]
+
+
+def parted(image: Tensor, first: Tensor, second: Tensor) -> Tensor:
+    """Mean RGB distance in ``image`` (3, H, W, or 3, N pixels) between the pixels ``first`` (P,)
+    and ``second`` (P,) of :func:`alike_pairs`: how far alike colours have parted; NaN if P = 0."""
+    pixels = image.flatten(1)
+    return (pixels[:, first] - pixels[:, second]).norm(dim=0).mean()
 
 
 def luminance_ssim(painting: Tensor, photo: Tensor) -> float:

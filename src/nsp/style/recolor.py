@@ -33,7 +33,7 @@ from nsp.brushes import Brush
 from nsp.painter.images import ssim
 from nsp.style.color import lab_to_rgb, rgb_to_lab
 from nsp.style.losses import sliced_wasserstein
-from nsp.style.measures import NEAR
+from nsp.style.measures import alike_pairs, parted
 
 EPS = 1e-4  # added to the painting's chroma covariance: (1 ΔE)², so a grey painting's stays invertible
 STRETCH = 2.0  # the most the start stretches chroma differences (A's largest eigenvalue) and f's slope
@@ -109,7 +109,7 @@ class Recoloring:
             out = rgb_to_lab(rgb)
             distance = sliced_wasserstein(out[compared].T[None, :, :, None], styles, projections, draws)
             structure = ssim(out[:, 0].reshape(1, height, width), photo_lightness)
-            spread = (rgb[first] - rgb[second]).norm(dim=1).mean() if len(first) else torch.zeros(())
+            spread = parted(rgb.T, first, second) if len(first) else torch.zeros(())
             return distance + PENALTY * (F.relu(floor - structure) + F.relu(spread - bound))
 
         def judged() -> tuple[float, Recoloring]:
@@ -175,15 +175,6 @@ def _hat(lightness: Tensor) -> Tensor:
     frac = (position - index)[..., None]
     below = F.one_hot(index.long(), KNOTS + 1).to(lightness)
     return (1 - frac) * below + frac * below.roll(1, -1)
-
-
-def alike_pairs(colors: Tensor, rows: int, generator: torch.Generator) -> tuple[Tensor, Tensor]:
-    """Indices (P,), (P,) of the pairs among ``rows`` seeded rows of ``colors`` (N, 3) that lie
-    within :data:`~nsp.style.measures.NEAR` of each other, as :func:`~nsp.style.measures.coherence`
-    pairs pixels."""
-    pick = torch.randperm(len(colors), generator=generator)[:rows]
-    first, second = (torch.cdist(colors[pick], colors[pick]) < NEAR).triu(1).nonzero().unbind(1)
-    return pick[first], pick[second]
 
 
 def gaussian_transport(source: Tensor, target: Tensor) -> Tensor:

@@ -27,8 +27,8 @@ from nsp.engine.raster import boxed_tiles
 from nsp.painter.images import ssim
 from nsp.style.color import lab_to_rgb, rgb_to_lab
 from nsp.style.losses import sliced_wasserstein
-from nsp.style.measures import coherence, luminance_ssim
-from nsp.style.recolor import alike_pairs, psd_sqrt
+from nsp.style.measures import SAMPLES, alike_pairs, luminance_ssim, parted
+from nsp.style.recolor import psd_sqrt
 
 STEPS = 200  # Adam steps on the colours' offsets
 RATE = 0.04  # their learning rate, in the style's standard deviations
@@ -140,7 +140,9 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
     sampled = styles[:, torch.randperm(styles.shape[1], generator=generator)[:PIXELS]][None, :, :, None]
     styles = styles[None, :, :, None]
     photo_lightness = rgb_to_lab(photo.detach().float(), dim=0)[:1]
-    first, second = alike_pairs(plain.detach().flatten(1).T.float(), PIXELS, generator)
+    plain_colors = plain.detach().flatten(1).T.float()
+    first, second = alike_pairs(plain_colors, PIXELS, generator)
+    checked = alike_pairs(plain_colors, SAMPLES, torch.Generator().manual_seed(seed))  # as coherence pairs pixels
     aim_floor, aim_bound = floor + margin * (1 - floor), (1 - margin) * bound
 
     def paint(table: Tensor) -> Tensor:
@@ -167,13 +169,12 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
         table = current()
         image = paint(table)
         pick = torch.randint(len(first), (min(len(first), PAIRS),), generator=generator)
-        parted = ((image.flatten(1)[:, first[pick]] - image.flatten(1)[:, second[pick]]).norm(dim=0).mean()
-                  if len(first) else torch.zeros(()))
+        apart = parted(image, first[pick], second[pick]) if len(first) else torch.zeros(())
         structure = ssim(rgb_to_lab(image, dim=0)[:1], photo_lightness)
         compared = torch.randperm(height * width, generator=generator)[:PIXELS]
         penalty = PENALTY * (1 + (tighten - 1) * step / steps)
         loss = distance(image, generator, PROJECTIONS, compared) / scale + penalty * (
-            F.relu(aim_floor - structure) + F.relu(parted - aim_bound))
+            F.relu(aim_floor - structure) + F.relu(apart - aim_bound))
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
@@ -182,7 +183,7 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
                 for share in range(BACK, 0, -1):  # the nearest share of the offsets within both bounds
                     table = current(share / BACK)
                     image = paint(table)
-                    if luminance_ssim(image, photo) >= floor and not coherence(plain, image, seed=seed) > bound:
+                    if luminance_ssim(image, photo) >= floor and not parted(image, *checked) > bound:
                         score = float(distance(image, torch.Generator().manual_seed(seed), judge))
                         if score < best[0]:
                             best = (score, table)
