@@ -35,7 +35,7 @@ from nsp.style.measures import SAMPLES, alike_pairs, color_distance, luminance_s
 MODES = ("full", "color")
 STRUCTURE = 0.2  # the share of luminance SSIM the recolouring may give up, per unit of β_sty
 STEPS = 10  # the shares of the refined map tried, back toward the start: 1, 1 − 1/STEPS, …, 1/STEPS
-COHERENT = 0.045  # the most colours alike in the painting may part on average (RGB): nsp.style.measures.coherence
+COHERENT = 0.048  # the most colours alike in the painting may part on average (RGB): nsp.style.measures.coherence
 
 
 def stylize(

@@ -39,7 +39,7 @@ JUDGE = 256  # the fixed directions the iterates are compared on, every CHECK st
 CHECK = 20
 BACK = 10  # an iterate outside a bound is taken back toward the start, 1/BACK of the way at a time
 PENALTY = 10.0  # a bound's excess against the colour distance, relative to the start's
-MARGIN = 0.1  # the steps aim this share inside each bound
+MARGIN = 0.02  # the steps aim this share inside each bound (iterates past one are taken back)
 TILE = 8  # the engine's tile (px) when probing
 REACH = 2.0  # px around a stroke's box where it may paint: the engine's culling margin (1 px), and 1 to spare
 
