@@ -26,7 +26,7 @@ from nsp.style import (
 )
 from nsp.style.color import lab_to_rgb, rgb_to_lab
 from nsp.style.measures import HELD_OUT_SEED, NEAR, coherence, color_distance, luminance_ssim, texture_distance
-from nsp.style.recolor import KNOTS, STRETCH, gaussian_transport
+from nsp.style.recolor import HUED, KNOTS, STRETCH, chroma_span, gaussian_transport
 
 S = 48  # canvas side in pixels: small, so optimization tests stay fast on a CPU
 
@@ -243,6 +243,27 @@ def test_refining_keeps_tones_in_order_and_their_steps_bounded(grey_to_colour):
     assert steps.min() > 0 and steps.max() <= STRETCH + 1e-5
     greys = torch.stack([torch.linspace(0, 1, 101), torch.zeros(101), torch.zeros(101)], 1)  # L*a*b* / 100
     assert refined.lab(greys)[:, 0].diff().min() > 0  # a darker tone stays darker: edges stay edges
+
+
+def test_chroma_varies_only_where_the_style_s_does(grey_to_colour):
+    _, colourful, *_ = grey_to_colour
+    tones = texture(data.gravel())[0, 0]
+    reds = lab_to_rgb(torch.stack([0.3 + 0.4 * tones, 0.3 * tones - 0.1, torch.zeros_like(tones)]), dim=0)  # a* alone varies
+    assert chroma_span(colourful).equal(torch.eye(2)) and chroma_span(tones.expand(3, -1, -1)).equal(torch.zeros(2, 2))
+    torch.testing.assert_close(chroma_span(reds), torch.tensor([[1.0, 0.0], [0.0, 0.0]]), atol=1e-3, rtol=0)
+    assert HUED <= 0.01  # a style's hue varying by 1 ΔE is kept
+
+
+def test_refining_toward_a_grey_style_keeps_a_grey_painting_grey(astronaut):
+    grey = astronaut.mean(0, keepdim=True).expand(3, -1, -1).contiguous()
+    style = (texture(data.brick())[0, 0] ** 0.5).expand(3, -1, -1)  # lighter tones than the photo's, no hue
+    start = Recoloring.fit(grey, style)
+    floor = 0.9 * luminance_ssim(grey, grey)
+    refined = start.refine(grey, grey, style, floor, 0.045)
+    recoloured = refined(grey, dim=0)
+    assert color_distance(recoloured, style) < 0.8 * color_distance(start(grey, dim=0), style)  # the tones move,
+    assert (100 * rgb_to_lab(recoloured, dim=0)[1:]).norm(dim=0).max() < 0.5  # and no tone takes a hue (ΔE)
+    assert luminance_ssim(recoloured, grey) >= floor
 
 
 def test_a_share_of_the_way_blends_two_maps(grey_to_colour):

@@ -48,6 +48,7 @@ CHECK = 10
 PAIRS = 1024  # seeded pixels among which refine finds the alike pairs it holds together
 PENALTY = 10.0  # the weight of a bound's excess against the colour distance
 MARGIN = 0.1  # refine aims this share inside each bound: the strokes' blends differ a little from pixels'
+HUED = 0.005  # a direction of chroma in which the style's colours vary less (standard deviation, 0.5 ΔE) takes no hue
 
 
 class Recoloring:
@@ -81,7 +82,9 @@ class Recoloring:
         sliced Wasserstein distance to them falls, while its luminance SSIM to ``photo`` (3, H, W)
         stays ≥ ``floor`` and colours within :data:`~nsp.style.measures.NEAR` of each other in it end
         up ≤ ``bound`` apart on average (RGB), each aimed :data:`MARGIN` inside; all RGB in [0, 1].
-        :data:`STEPS` Adam steps on the painting's pixels, their draws seeded by ``seed``."""
+        g and A vary the chroma only in the directions the style's does (:func:`chroma_span`): toward
+        a grey style the painting stays grey. :data:`STEPS` Adam steps on the painting's pixels,
+        their draws seeded by ``seed``."""
         generator = torch.Generator().manual_seed(seed)
         height, width = painting.shape[1:]
         colors = painting.detach().cpu().float().flatten(1).T  # (N, 3)
@@ -91,6 +94,7 @@ class Recoloring:
         compared = torch.randperm(len(lab), generator=generator)[:PIXELS]
         first, second = alike_pairs(colors, PAIRS, generator)
         photo_lightness = rgb_to_lab(photo.detach().cpu().float(), dim=0)[:1]
+        span = chroma_span(style)
         floor, bound = floor + MARGIN * (1 - floor), (1 - MARGIN) * bound
 
         slope = (self.lightness.diff() * KNOTS / STRETCH).clamp(1e-3, 1 - 1e-3)
@@ -102,7 +106,7 @@ class Recoloring:
 
         def current() -> Recoloring:
             values = torch.cat([start, start + torch.cumsum(STRETCH * torch.sigmoid(logits) / KNOTS, 0)])
-            return Recoloring(values, hue, matrix, self.mean_in, self.mean_out)
+            return Recoloring(values, hue @ span.T, span @ matrix, self.mean_in, self.mean_out)
 
         def objective(draws: torch.Generator, projections: int) -> Tensor:
             rgb = lab_to_rgb(current().lab(lab)).clamp(0, 1)  # as painted
@@ -165,6 +169,22 @@ class Recoloring:
         out = x.detach().clone()
         out[:, color] = self(x.detach()[:, color].reshape(len(x), -1, 3)).reshape(len(x), -1)
         return out
+
+
+def chroma_span(style: Tensor) -> Tensor:
+    """The projection (2, 2) onto the directions of chroma (a*, b*) in which the colours of ``style``
+    (3, h, w) vary by :data:`HUED` or more: the identity for a colourful style, zero for a grey one.
+
+    A sliced Wasserstein fit may otherwise tint the tones a grey style cannot match in lightness:
+    along a direction that mixes lightness and chroma, a hue makes up part of the lightness gap.
+    """
+    chroma = rgb_to_lab(style.detach().flatten(1).cpu().double(), dim=0)[1:]
+    values, vectors = torch.linalg.eigh(torch.cov(chroma))
+    varied = values.clamp(min=0).sqrt() >= HUED
+    if varied.all():
+        return torch.eye(2)
+    kept = vectors[:, varied]
+    return (kept @ kept.T).float()
 
 
 def _hat(lightness: Tensor) -> Tensor:
