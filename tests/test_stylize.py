@@ -178,7 +178,7 @@ def test_the_held_out_study_shares_no_image_with_the_development_set_or_the_test
         study = compose("paint", overrides=["experiment=style_heldout"])
         cfg = compose("paint", overrides=["experiment=style_heldout", f"output_dir={tmp_path}", "task.photos=[coins]",
                                           "task.styles=[coins,moon]", "strokes=4", "work_size=32", "style.size=32",
-                                          "style.weight=0.01"])  # a floor near the plain SSIM: colour mode falls short
+                                          "style.weight=0"])  # the lightness kept: toward a grey style, colour mode falls short
     development = {"astronaut", "chelsea", "coffee", "rocket", "china", "flower", "camera", "gravel", "brick", "grass"}
     assert len(study.task.photos) == 10 and list(study.task.styles) == list(study.task.photos)
     assert not development & set(study.task.photos) and list(study.task.modes) == ["color"]
