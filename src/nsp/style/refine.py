@@ -31,7 +31,7 @@ from nsp.style.measures import SAMPLES, alike_pairs, luminance_ssim, parted
 from nsp.style.recolor import psd_sqrt
 
 STEPS = 200  # Adam steps on the colours' offsets
-RATE = 0.04  # their learning rate, in the style's standard deviations
+RATE = 0.08  # their learning rate, in the style's standard deviations
 PIXELS = 2048  # seeded pixels among which the alike pairs are found, and whose colours a step compares
 PAIRS = 20000  # the alike pairs a step holds together, drawn afresh
 PROJECTIONS = 32  # sliced Wasserstein directions a step draws
