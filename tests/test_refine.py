@@ -7,7 +7,7 @@ import torch
 
 from nsp.brushes import BRUSHES
 from nsp.brushes.svg import hex_color
-from nsp.engine import paint_canvas
+from nsp.engine import paint_canvas, parse_color
 from nsp.experiments.style import ceiling
 from nsp.style import Recoloring
 from nsp.style.color import rgb_to_lab
@@ -79,6 +79,19 @@ def test_iterates_past_a_bound_are_taken_back_toward_the_start_not_dropped(paint
     refined = paint_canvas(brush, x, HEIGHT, WIDTH, tuple(canvas.tolist()))
     assert color_distance(refined, style) < 0.7 * color_distance(before, style)
     assert luminance_ssim(refined, photo) >= floor and coherence(photo, refined, seed=1) <= 0.045
+
+
+def test_the_bounds_hold_on_the_painting_as_its_files_write_it(painting):
+    brush, strokes, photo, style = painting
+    shared = Recoloring.fit(photo, style)
+    start, canvas = shared.strokes(brush, strokes), shared(torch.ones(3))
+    floor = 0.9 * luminance_ssim(photo, photo)
+    # aimed past both bounds, the colours kept sit at a bound's edge, where the canvas colour's
+    # rounding to #rrggbb could tip the painting past it
+    x, canvas = refine_colors(brush, start, canvas, photo, photo, style, floor, 0.045, margin=-1.0)
+    assert torch.equal(torch.tensor(parse_color(hex_color(canvas)), dtype=canvas.dtype), canvas)
+    written = paint_canvas(brush, x, HEIGHT, WIDTH, hex_color(canvas))
+    assert luminance_ssim(written, photo) >= floor and coherence(photo, written, seed=1) <= 0.045
 
 
 def test_with_no_room_in_the_bounds_the_colours_come_back_as_given(painting):

@@ -126,7 +126,8 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
     penalties that grow linearly to ``tighten`` × :data:`PENALTY` by the last step (more than 1:
     the iterates end nearer the bounds' edge).
     Every :data:`CHECK` steps the iterate is judged, or where it leaves a bound the largest share of
-    its offsets (in tenths, back toward the start) within both. Returns the strokes and canvas
+    its offsets (in tenths, back toward the start) within both, its canvas colour as ``#rrggbb``
+    holds it (:func:`as_written`). Returns the strokes and canvas
     colour of the best judged, or the ones given if none is nearer the style's colours. Judged on
     every pixel, on ``judge`` directions and coherence's pixels drawn with ``seed``; the steps'
     draws use ``seed`` + 1 (the measures of :mod:`nsp.style.measures` use seed 0: keep it apart,
@@ -181,7 +182,7 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
         if step % CHECK == 0:
             with torch.no_grad():
                 for share in range(BACK, 0, -1):  # the nearest share of the offsets within both bounds
-                    table = current(share / BACK)
+                    table = as_written(current(share / BACK))
                     image = paint(table)
                     if luminance_ssim(image, photo) >= floor and not parted(image, *checked) > bound:
                         score = float(distance(image, torch.Generator().manual_seed(seed), judge))
@@ -189,6 +190,13 @@ def refine_colors(brush: Brush, strokes: Tensor, canvas: Tensor, plain: Tensor, 
                             best = (score, table)
                         break
     return with_colors(brush, strokes, best[1])
+
+
+def as_written(table: Tensor) -> Tensor:
+    """The painting's colours ``table`` (K, 3, as :func:`colors` lists them) with the canvas colour
+    on the 8-bit grid of ``#rrggbb``, as the painting's files hold it: a bound judged on the
+    painting with the canvas colour unrounded can fail on the painting as written."""
+    return torch.cat([table[:-1], (table[-1:] * 255).round() / 255])
 
 
 def style_spread(style: Tensor) -> Tensor:
