@@ -22,7 +22,8 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.engine import paint_canvas
+from nsp.brushes.svg import hex_color
+from nsp.engine import paint_canvas, parse_color
 from nsp.engine.raster import boxed_tiles
 from nsp.painter.images import ssim
 from nsp.style.color import lab_to_rgb, rgb_to_lab
@@ -196,7 +197,7 @@ def as_written(table: Tensor) -> Tensor:
     """The painting's colours ``table`` (K, 3, as :func:`colors` lists them) with the canvas colour
     on the 8-bit grid of ``#rrggbb``, as the painting's files hold it: a bound judged on the
     painting with the canvas colour unrounded can fail on the painting as written."""
-    return torch.cat([table[:-1], (table[-1:] * 255).round() / 255])
+    return torch.cat([table[:-1], torch.tensor([parse_color(hex_color(table[-1]))]).to(table)])
 
 
 def style_spread(style: Tensor) -> Tensor:
