@@ -212,27 +212,27 @@ def test_a_kernel_is_compiled_once_into_the_cache_and_falls_back_where_it_cannot
 
     brush, consts = BRUSHES["tape"], dict(height=16, width=24, tile=8, softness=None)
     monkeypatch.setattr(fused, "CACHE", tmp_path)
-    x, t = brush.sample(5, generator), torch.arange(5) % 6
+    x, t, key = brush.sample(5, generator), torch.arange(5) % 6, torch.arange(5)
     dx, dy = tile_offsets(8, x)
-    eager = shade_tiles(brush, x, t, dx, dy, **consts)
-    compiled = fused.fused(shade_tiles, brush, x, t, dx, dy, **consts)
+    eager = shade_tiles(brush, x, t, key, dx, dy, **consts)
+    compiled = fused.fused(shade_tiles, brush, (x, t, key), (dx, dy), **consts)
     assert list(tmp_path.rglob("*.pt2")) == [fused.package(shade_tiles, brush, consts, x.device)]
     assert all(torch.allclose(a, b, atol=1e-5) for a, b in zip(compiled, eager))
     stamp = fused.package(shade_tiles, brush, consts, x.device).stat().st_mtime_ns
-    more = brush.sample(300, generator)  # another batch size: the same kernel
-    again = fused.fused(shade_tiles, brush, more, torch.arange(300) % 6, dx, dy, **consts)
+    more, t, key = brush.sample(300, generator), torch.arange(300) % 6, torch.arange(300)  # another batch size: the same kernel
+    again = fused.fused(shade_tiles, brush, (more, t, key), (dx, dy), **consts)
     assert fused.package(shade_tiles, brush, consts, x.device).stat().st_mtime_ns == stamp
-    assert torch.allclose(again[1], shade_tiles(brush, more, torch.arange(300) % 6, dx, dy, **consts)[1], atol=1e-5)
-    grad = x.clone().requires_grad_()
-    fg, _ = fused.fused(shade_tiles, brush, grad, t, dx, dy, **consts)  # no backward in a kernel: eager
+    assert torch.allclose(again[1], shade_tiles(brush, more, t, key, dx, dy, **consts)[1], atol=1e-5)
+    grad = more.clone().requires_grad_()
+    fg, _ = fused.fused(shade_tiles, brush, (grad, t, key), (dx, dy), **consts)  # no backward in a kernel: eager
     assert fg.requires_grad
 
 
 def test_paint_canvas_compiled_equals_eager(generator):
-    brush = BRUSHES["oilpaint"]  # its texture is baked into the kernel, at this canvas's mipmap level
+    brush = BRUSHES["oilpaint"]  # its bristles drawn at this canvas's size: hashed noise, lit relief
     x = moderate(brush, 40, generator)
-    eager = paint_canvas(brush, x, 48, 40, compile=False)
-    fused = paint_canvas(brush, x, 48, 40, compile=True)
+    eager = paint_canvas(brush, x, 560, 480, compile=False)
+    fused = paint_canvas(brush, x, 560, 480, compile=True)
     assert (fused - eager).abs().max() < 0.1 and ((fused - eager).abs() > 1e-4).float().mean() < 1e-3
 
 

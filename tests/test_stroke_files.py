@@ -75,6 +75,17 @@ def test_reference_rectangle_is_tape_with_half_extents_and_its_alpha(tmp_path):
     assert torch.allclose(canvas[:, 64, 64], 0.3 * torch.tensor([0.2, 0.4, 0.6]) + 0.7, atol=1e-5)
 
 
+def test_reference_rectangles_turn_counter_clockwise_on_screen(tmp_path):
+    # θ = 0.25 in the reference's convention: the long side turned 45° counter-clockwise on screen
+    # (y down), from the lower left to the upper right of its centre.
+    path = npz(tmp_path / "t.npz", [[0.5, 0.5, 0.8, 0.1, 0.25]], [[0.0, 0.0, 0.0]], [[1.0]])
+    painting = load_strokes(path, brush="tape", size=129)
+    _, alpha = render(painting.brush, painting.strokes, 129)
+    d = round(20 / 2**0.5)  # 20 px along a diagonal: inside the 27-px half length, outside the 4-px half width
+    assert alpha[0, 0, 64 - d, 64 + d] == 1 and alpha[0, 0, 64 + d, 64 - d] == 1  # upper right, lower left
+    assert alpha[0, 0, 64 + d, 64 + d] == 0 and alpha[0, 0, 64 - d, 64 - d] == 0  # not the other diagonal
+
+
 def test_opaque_reference_rectangles_are_nsp_tape(tmp_path):
     path = npz(tmp_path / "t.npz", [[0.5, 0.5, 0.5, 0.25, 0.0]], [[0.2, 0.4, 0.6]], [[1.0]])
     assert load_strokes(path, brush="tape", size=128).brush is BRUSHES["tape"]

@@ -22,6 +22,7 @@ BRUSH_NAMES = ("oilpaint", "watercolor", "markerpen", "tape")  # nsp.brushes.BRU
 class BrushConfig:
     name: str
     texture: Optional[str] = None  # grayscale image for oilpaint's bristles; None = nsp's own
+    impasto: bool = True  # oilpaint: its paint's relief lit from the upper left
 
 
 def register_brushes() -> None:

@@ -6,6 +6,7 @@ pixel p·(W−1) (x) or p·(H−1) (y); sizes are fractions of the canvas width 
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,12 +19,15 @@ KINDS = ("x", "y", "size", "angle", "ctrl_x", "ctrl_y", "color", "alpha")
 
 @dataclass(frozen=True)
 class Pixels:
-    """Pixel centres in canvas pixel units, one row per stroke: px, py of shape (P, N)."""
+    """Pixel centres in canvas pixel units, one row per stroke: px, py of shape (P, N); ``key``
+    (P, 1) int64, each row's stroke's key (its index and the painting's seed, for brushes whose
+    paint varies from stroke to stroke; None: 0)."""
 
     px: Tensor
     py: Tensor
     height: int
     width: int
+    key: Tensor | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,10 +53,25 @@ class Brush:
     description: str = ""
     options: dict = field(default_factory=dict)
     texture_path: str | None = None  # the image of an oil brush's bristle texture; None: nsp's own
+    seed: int = 0  # with each stroke's index, what a brush whose paint varies by stroke draws it from
     reference: tuple[int, int] = (0, 0)
     # astronaut, 500 strokes, seeds 0–2 (docs/benchmarks.md): 0.25 over 0.5 +0.14 to +0.26 dB for the
     # translucent and thin brushes; oil's whole image −0.18 dB (its face +0.8), so oil keeps 0.5
     softness: float = 0.25
+
+    def plain(self) -> "Brush":
+        """This brush with any detail finer than its strokes (oil's bristles) replaced by its mean:
+        what the painter's own canvases need, whose blocks it samples down to its working size."""
+        return self
+
+    def varies(self, width: int) -> bool:
+        """Whether a stroke's paint on a canvas ``width`` px wide depends on its key (see :class:`Pixels`)."""
+        return False
+
+    @property
+    def variant(self) -> str:
+        """What sets this brush's rendering apart from others of its name and parameters ("" for none)."""
+        return ""
 
     @property
     def d(self) -> int:
@@ -99,14 +118,15 @@ class Brush:
         raise NotImplementedError
 
     # --- formats: implemented by each brush ---------------------------------------------------
-    def svg_defs(self) -> list[str]:
-        """SVG definitions every stroke of this brush shares (e.g. a texture)."""
-        return []
-
     def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
         """(definitions, element) drawing stroke number ``index`` with parameters ``p`` (d,) on a
         ``height``×``width`` canvas."""
         raise NotImplementedError
+
+    def svg_elements(self, strokes: np.ndarray, height: int, width: int) -> Iterator[tuple[str, str]]:
+        """:meth:`svg` of each stroke (N, d), in order (a brush may make them together)."""
+        for index, p in enumerate(strokes):
+            yield self.svg(index, p, height, width)
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple["Brush", np.ndarray]:
         """Strokes in the reference implementation's convention (``x_ctt`` (N, c), ``x_color``

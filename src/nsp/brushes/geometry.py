@@ -9,6 +9,16 @@ from torch import Tensor
 _EPS = 1e-8
 
 
+def antialiased(sd: Tensor) -> Tensor:
+    """Box-filtered coverage of a pixel whose centre is ``sd`` pixels outside the edge."""
+    return (0.5 - sd).clamp(0, 1)
+
+
+def soft(sd: Tensor, softness: float = 1.0) -> Tensor:
+    """Sigmoid coverage: differentiable everywhere, a ``softness``-pixel-wide edge."""
+    return torch.sigmoid(-sd / softness)
+
+
 def to_pixels(x: Tensor, y: Tensor, height: int, width: int) -> tuple[Tensor, Tensor]:
     """Map positions in [0, 1] to pixel coordinates: p -> p·(W−1), p·(H−1); sizes (height, width), as everywhere in nsp."""
     return x * (width - 1), y * (height - 1)

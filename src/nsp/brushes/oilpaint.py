@@ -2,46 +2,73 @@
 (R0, G0, B0) at the head to (R2, G2, B2) at the tail."""
 from __future__ import annotations
 
+import dataclasses
+import functools
+import hashlib
+import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import Tensor
 
+from nsp.brushes import bristles
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.svg import UNIT, hex_color, png_data_uri, rectangle_frame
+from nsp.brushes.svg import png_data_uri
 from nsp.brushes.tape import rectangle, rectangle_extent
-from nsp.brushes.texture import bristle_texture, load_texture
-from nsp.brushes.geometry import box
+from nsp.brushes.texture import load_texture
+from nsp.brushes.geometry import antialiased, box
 
-_OPAQUE = 0.4  # texture values above this are fully covered with paint
+_OPAQUE = 0.4  # a user texture's values above this are fully covered with paint
+SVG_PIXELS = 1 << 16  # pixels of the strokes' SVG images evaluated at once
 
 
 def sample(texture: Tensor, u: Tensor, v: Tensor) -> Tensor:
     """Bilinear texture values (P, N) at (u, v) ∈ [0, 1]² (P, N) of a (1, 1, h, w) texture."""
-    return _grid_sample(texture, u, v)
-
-
-def _grid_sample(texture: Tensor, u: Tensor, v: Tensor) -> Tensor:
     grid = torch.stack([2 * u - 1, 2 * v - 1], -1)[:, None]  # (P, 1, N, 2)
     return F.grid_sample(texture.expand(u.shape[0], -1, -1, -1), grid, align_corners=True)[:, 0, 0]
 
 
+@functools.cache
+def _digest(path: str) -> str:
+    """A user texture's identity: its bytes, hashed."""
+    return hashlib.sha1(Path(path).read_bytes()).hexdigest()[:12]
+
+
 @dataclass(frozen=True, eq=False)
 class OilPaint(Brush):
+    """Oil paint. Its paint is the bristle model (:mod:`nsp.brushes.bristles`), or a user's
+    grayscale image stretched over each stroke (``texture_path``); ``impasto`` lights its relief."""
+
+    impasto: bool = True
+    detail: bool = True  # False: the bristles' mean at any size (see Brush.plain)
     _cache: dict = field(default_factory=dict, repr=False)
 
+    def plain(self) -> "OilPaint":
+        if "plain" not in self._cache:
+            self._cache["plain"] = dataclasses.replace(self, detail=False, _cache={})
+        return self._cache["plain"]
+
+    def varies(self, width: int) -> bool:
+        return self.detail and self.texture_path is None and bristles.drawn(width)
+
+    @property
+    def variant(self) -> str:
+        texture = _digest(self.texture_path) if self.texture_path else "own"
+        return texture + ("" if self.impasto else "-flat") + ("" if self.detail else "-plain")
+
     def texture(self, device, dtype, canvas_width: int | None = None) -> Tensor:
-        """The bristle texture as (1, 1, h, w) on ``device``.
+        """A user's texture as (1, 1, h, w) on ``device``.
 
         For a canvas narrower than the texture it is area-downsampled to at most the canvas width,
         so small renders are not aliased (a mipmap level).
         """
         key = (str(device), dtype, canvas_width)
         if key not in self._cache:
-            tex = load_texture(self.texture_path) if self.texture_path else bristle_texture()
-            tex = tex[None, None].to(device=device, dtype=dtype)
+            tex = load_texture(self.texture_path)[None, None].to(device=device, dtype=dtype)
             if canvas_width is not None and canvas_width < tex.shape[-1]:
                 scale = max(canvas_width, 16) / tex.shape[-1]
                 size = (max(4, round(tex.shape[-2] * scale)), max(16, round(tex.shape[-1] * scale)))
@@ -56,35 +83,74 @@ class OilPaint(Brush):
         return box(*rectangle(x, pix))
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
-        along, across, half_w, half_h = rectangle(x, pix)
-        cov = coverage(box(along, across, half_w, half_h))
-        u = along / (2 * half_w.clamp(min=0.5))[:, None] + 0.5  # 0 at the head, 1 at the tail
-        v = across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5
-        value = sample(self.texture(x.device, x.dtype, pix.width), u, v)
-        alpha = cov * (value / _OPAQUE).clamp(0, 1)
+        alpha, paint, u = self._surface(x, pix, coverage)
         c0, c2 = x[:, 5:8, None], x[:, 8:11, None]
-        color = (c0 + (c2 - c0) * u.clamp(0, 1)[:, None]) * (0.7 + 0.3 * value[:, None])
+        color = c0 + (c2 - c0) * u[:, None]
+        if paint.shade is not None:
+            color = color * paint.shade[:, None]
         return color * (alpha > 0)[:, None], alpha
 
-    def svg_defs(self) -> list[str]:
-        """The texture, as an alpha mask and a shading overlay in the unit square of a stroke."""
-        texture = self.texture("cpu", torch.float32)[0, 0].numpy()
-        alpha = np.clip(texture / _OPAQUE, 0, 1)
-        shade = 0.3 * (1 - texture)  # black at this opacity multiplies the colour by 0.7 + 0.3·texture
-        unit = UNIT + ' preserveAspectRatio="none"'
-        return [
-            f'<mask id="oil-mask" maskUnits="userSpaceOnUse" {UNIT}><image {unit} href="{png_data_uri(alpha)}"/></mask>',
-            f'<image id="oil-shade" {unit} href="{png_data_uri(np.zeros_like(shade), shade)}"/>',
-        ]
+    def _surface(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, bristles.Surface, Tensor]:
+        """Alpha (P, N), the paint (:class:`~nsp.brushes.bristles.Surface`) and u ∈ [0, 1] (P, N),
+        0 at the head, of strokes ``x`` (P, d) at the pixels ``pix``."""
+        along, across, half_w, half_h = rectangle(x, pix)
+        light = bristles.light_across(x[:, 4]) if self.impasto else None
+        length = 2 * half_w
+        s = along + half_w[:, None]  # pixels from the head
+        u = (s / length.clamp(min=0.5)[:, None]).clamp(0, 1)
+        edge = box(along, across, half_w, half_h)
+        if self.texture_path is None:
+            key = pix.key if pix.key is not None else torch.zeros_like(along[:, :1], dtype=torch.int64)
+            paint = bristles.surface(s, across, u, length, half_h, key, pix.width if self.detail else 0.0, light)
+            return coverage(torch.maximum(edge, paint.outline)) * paint.cover, paint, u
+        paint = self._textured(u, across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5, pix.width, light)
+        return coverage(edge) * paint.cover, paint, u
 
-    def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
-        gradient = (
-            f'<linearGradient id="g{index}" gradientUnits="userSpaceOnUse" x1="-0.5" y1="0" x2="0.5" y2="0">'
-            f'<stop offset="0" stop-color="{hex_color(p[5:8])}"/><stop offset="1" stop-color="{hex_color(p[8:11])}"/>'
-            "</linearGradient>"
-        )
-        body = f'<rect {UNIT} fill="url(#g{index})"/><use href="#oil-shade"/>'
-        return gradient, f'<g {rectangle_frame(p, height, width)} mask="url(#oil-mask)">{body}</g>'
+    def _textured(self, u: Tensor, v: Tensor, width: int, light) -> bristles.Surface:
+        """A user's texture as paint: its values give the cover and, as a height, the relief."""
+        texture = self.texture(u.device, u.dtype, width)
+        value = sample(texture, u, v)
+        shade = 0.7 + 0.3 * value
+        if light is not None:
+            du, dv = 1 / texture.shape[-1], 1 / texture.shape[-2]
+            slope = ((sample(texture, u + du, v) - sample(texture, u - du, v)) * light[0]
+                     + (sample(texture, u, v + dv) - sample(texture, u, v - dv)) * light[1])
+            shade = shade * (1 - bristles.LIT * 2 * slope)
+        return bristles.Surface((value / _OPAQUE).clamp(0, 1), shade, torch.full_like(value, -math.inf))
+
+    def svg_images(self, strokes: np.ndarray, height: int, width: int) -> Iterator[tuple[int, int, np.ndarray]]:
+        """Each stroke's paint (N, d) on the pixels of a ``height``×``width`` canvas its box covers,
+        as the engine paints them: the box's first column and row, and its colour and alpha
+        (h, w, 4) in [0, 1] (empty where the stroke misses the canvas). Every pixel of every stroke
+        is evaluated together, ``SVG_PIXELS`` at a time."""
+        x = torch.as_tensor(strokes, dtype=torch.float32)
+        box = rectangle_extent(x.double(), height, width)  # (N, 4) px: x_min, y_min, x_max, y_max
+        first = torch.ceil(box[:, :2] - 0.5).clamp(min=0).long()  # pixel centres within the box, on the canvas
+        last = torch.minimum(torch.floor(box[:, 2:] + 0.5).long(), torch.tensor([width - 1, height - 1]))
+        cols, rows = (last - first + 1).clamp(min=0).unbind(1)
+        counts = cols * rows
+        stroke = torch.repeat_interleave(torch.arange(len(x)), counts)  # (M,) a pixel's stroke
+        pixel = torch.arange(len(stroke)) - torch.repeat_interleave(counts.cumsum(0) - counts, counts)
+        px = (first[stroke, 0] + pixel % cols[stroke]).float()
+        py = (first[stroke, 1] + torch.div(pixel, cols[stroke], rounding_mode="floor")).float()
+        key = bristles.stroke_keys(self.seed, stroke)
+        parts = []
+        for part in torch.arange(len(stroke)).split(SVG_PIXELS):
+            color, alpha = self.paint(x[stroke[part]], Pixels(px[part, None], py[part, None], height, width,
+                                                               key[part, None]), antialiased)
+            parts.append(torch.cat([color[:, :, 0], alpha], 1).clamp(0, 1))
+        pixels = torch.cat(parts) if parts else torch.zeros(0, 4)
+        for (left, top), image, h, w in zip(first.tolist(), pixels.split(counts.tolist()), rows.tolist(), cols.tolist()):
+            yield left, top, image.reshape(h, w, 4).numpy()
+
+    def svg_elements(self, strokes: np.ndarray, height: int, width: int) -> Iterator[tuple[str, str]]:
+        """Each stroke as an image of its paint on the canvas pixels it covers, placed pixel on pixel:
+        a browser draws what final.png shows, at the painting's own size."""
+        for left, top, image in self.svg_images(strokes, height, width):
+            h, w = image.shape[:2]
+            if h and w:  # a stroke off the canvas has no element
+                yield "", f'<image x="{left - 0.5}" y="{top - 0.5}" width="{w}" height="{h}" href="{png_data_uri(image)}"/>'
+
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
         sizes = (1 + ctt[:, 2:4] * width) / width  # extents 1 + w·W px -> fraction of W; its alpha is unused
@@ -98,7 +164,7 @@ OILPAINT = OilPaint(
     shape=(0, 1, 2, 3, 4),
     color=tuple(range(5, 11)),
     alpha=None,
-    description="opaque rotated rectangle with a bristle texture; colour blends head to tail",
+    description="opaque rotated rectangle of bristle paint; colour blends head to tail",
     reference=(5, 6),
     softness=0.5,
 )

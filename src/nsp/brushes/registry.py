@@ -16,15 +16,19 @@ BRUSHES: dict[str, Brush] = {b.name: b for b in (OILPAINT, WATERCOLOR, MARKERPEN
 VARIANTS = (TRANSLUCENT_TAPE,)  # brushes of the same name with other parameters, met in stroke files
 
 
-def get_brush(name: str, texture: str | None = None, params: list[str] | None = None) -> Brush:
+def get_brush(name: str, texture: str | None = None, params: list[str] | None = None, *, seed: int = 0,
+              impasto: bool = True) -> Brush:
     """The brush called ``name``; ``texture`` is a grayscale image path for ``oilpaint``; ``params``,
-    the parameter names a stroke file lists, pick a variant that has exactly those."""
+    the parameter names a stroke file lists, pick a variant that has exactly those; ``seed``, with
+    each stroke's index, draws a brush's stroke-to-stroke variation (oil's bristles); ``impasto``
+    lights oil paint's relief."""
     if name not in BRUSHES:
         raise BadInput(f"unknown brush '{name}', expected one of: {', '.join(BRUSHES)}")
     brush = next((b for b in VARIANTS if b.name == name and list(b.params) == params), BRUSHES[name])
-    if texture is not None:
+    if texture is not None or not impasto:
         if name != "oilpaint":
-            raise BadInput(f"brush.texture applies to oilpaint only, not '{name}'")
-        load_texture(texture)  # a bad file fails here, before any work
-        brush = dataclasses.replace(brush, texture_path=str(texture), _cache={})
-    return brush
+            raise BadInput(f"brush.{'texture' if texture is not None else 'impasto'} applies to oilpaint only, not '{name}'")
+        if texture is not None:
+            load_texture(texture)  # a bad file fails here, before any work
+        brush = dataclasses.replace(brush, texture_path=None if texture is None else str(texture), impasto=impasto, _cache={})
+    return dataclasses.replace(brush, seed=seed) if seed else brush

@@ -15,13 +15,13 @@ def hex_color(rgb) -> str:
     return "#" + "".join(f"{round(float(c) * 255):02x}" for c in rgb)
 
 
-def png_data_uri(gray: np.ndarray, alpha: np.ndarray | None = None) -> str:
-    """A (H, W) grayscale image in [0, 1], with an optional alpha, as an embedded PNG."""
+def png_data_uri(image: np.ndarray) -> str:
+    """An (H, W, 4) RGBA image in [0, 1] as an embedded PNG."""
     from PIL import Image
 
-    mode, array = ("L", gray) if alpha is None else ("LA", np.stack([gray, alpha], -1))
     buffer = io.BytesIO()
-    Image.fromarray((array * 255 + 0.5).astype(np.uint8), mode).save(buffer, format="PNG")
+    Image.fromarray((image * 255 + 0.5).astype(np.uint8), "RGBA").save(
+        buffer, format="PNG", compress_level=3)  # 2× faster than 6, 10 % larger
     return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode()
 
 

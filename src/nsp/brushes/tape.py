@@ -52,8 +52,9 @@ class Tape(Brush):
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
         sizes = 2 * (1 + ctt[:, 2:4] * width / 4) / width  # half extents 1 + w·W/4 px -> full extent / W
+        turn = np.mod(1 - ctt[:, 4:5], 1)  # its rectangles turn counter-clockwise on screen by θ·π, nsp's clockwise
         brush = self if (alpha >= 1).all() else TRANSLUCENT_TAPE  # its rectangles blend with their alpha
-        parts = [ctt[:, :2], sizes, ctt[:, 4:5], color] + ([] if brush.alpha is None else [alpha])
+        parts = [ctt[:, :2], sizes, turn, color] + ([] if brush.alpha is None else [alpha])
         return brush, np.clip(np.concatenate(parts, 1), 0, 1)
 
 

@@ -61,21 +61,24 @@ class TiledCanvas:
         self.tiles = to_tiles(canvas, tile)  # a copy: strokes are blended into it in place
 
     def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = CHUNK_STROKES,
-              compile: bool = False) -> None:
-        """Composite ``strokes`` (N, d), in order, a :func:`chunks` at a time (memory stays
-        bounded); ``compile``: shade them on the compiled path (:mod:`nsp.engine.fused`)."""
-        for _ in self.paint_until(brush, strokes, [len(strokes)], softness=softness, chunk=chunk, compile=compile):
+              compile: bool = False, first: int = 0) -> None:
+        """Composite ``strokes`` (N, d), numbers ``first``, … of their painting, in order, a
+        :func:`chunks` at a time (memory stays bounded); ``compile``: shade them on the compiled
+        path (:mod:`nsp.engine.fused`)."""
+        for _ in self.paint_until(brush, strokes, [len(strokes)], softness=softness, chunk=chunk, compile=compile,
+                                  first=first):
             pass
 
     def paint_until(self, brush: Brush, strokes: Tensor, ends: list[int], *, softness: float | None = None,
-                    chunk: int = CHUNK_STROKES, compile: bool = False) -> Iterator[int]:
+                    chunk: int = CHUNK_STROKES, compile: bool = False, first: int = 0) -> Iterator[int]:
         """:meth:`paint`, pausing once strokes[:end] are on the canvas to yield ``end``, for each of
         ``ends`` (ascending, the last N): an animation's frames. Strokes are still rasterized a chunk
         at a time, not a frame at a time."""
         ends, done = iter(ends), 0
         end = next(ends, None)
         for part in chunks(brush, strokes, self.height, self.width, chunk):
-            tiles = rasterize(brush, part, self.height, self.width, softness=softness, tile=self.tile, compile=compile)
+            tiles = rasterize(brush, part, self.height, self.width, softness=softness, tile=self.tile, compile=compile,
+                              first=first + done)
             start, stop = done, done + len(part)
             while start < stop:  # the chunk's strokes up to the next end, or to its own end
                 until = min(stop, len(strokes) if end is None else end)
@@ -111,8 +114,10 @@ def paint_canvas(
     chunk: int = CHUNK_STROKES,
     tile: int = 8,
     compile: bool | None = None,
+    first: int = 0,
 ) -> Tensor:
-    """Composite ``strokes`` (N, d), in order, onto a canvas: (3, H, W) in [0, 1].
+    """Composite ``strokes`` (N, d), numbers ``first``, … of their painting, in order, onto a
+    canvas: (3, H, W) in [0, 1].
 
     Only the tiles each stroke touches are rendered and blended, ``chunk`` strokes at a time, so
     a painting of thousands of strokes renders at any size in bounded memory.
@@ -125,5 +130,5 @@ def paint_canvas(
     if compile is None:
         compile = pays(brush, strokes, height, width, softness)
     tiled = TiledCanvas(canvas, tile)
-    tiled.paint(brush, strokes, softness=softness, chunk=chunk, compile=compile)
+    tiled.paint(brush, strokes, softness=softness, chunk=chunk, compile=compile, first=first)
     return tiled.image()

@@ -37,16 +37,10 @@ HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-p
 
 def package(stage, brush: Brush, consts: dict, device: torch.device) -> Path:
     """Where the compiled ``stage`` of ``brush`` lives: one file per torch version, version of the
-    code it is traced from, stage, brush variant (its parameters, its texture's bytes), constants
+    code it is traced from, stage, brush variant (its parameters, :attr:`~nsp.brushes.Brush.variant`), constants
     (canvas, tiling, edge) and device."""
-    texture = _digest(brush.texture_path) if brush.texture_path else "own"
     fixed = "-".join(f"{key}{consts[key]}" for key in sorted(consts))
-    return CACHE / torch.__version__ / _code() / f"{stage.__name__}-{brush.name}{brush.d}-{texture}-{fixed}-{device.type}.pt2"
-
-
-@functools.cache
-def _digest(path: str) -> str:
-    return hashlib.sha1(Path(path).read_bytes()).hexdigest()[:12]
+    return CACHE / torch.__version__ / _code() / f"{stage.__name__}-{brush.name}{brush.d}-{brush.variant}-{fixed}-{device.type}.pt2"
 
 
 @functools.cache
@@ -80,19 +74,21 @@ class _Stage(torch.nn.Module):
         return self.stage(self.brush, *tensors, **self.consts)
 
 
-def compile_kernel(stage, brush: Brush, fixed: tuple[Tensor, ...], consts: dict, device: torch.device) -> Path:
+def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, ...], consts: dict,
+                   device: torch.device) -> Path:
     """Export and compile ``stage`` into its :func:`package`, written atomically (a concurrent run
-    never reads half a file); returns its path. ``fixed``: its tensors after x and t, as given."""
+    never reads half a file); returns its path. ``paired``: its tensors of one row a pair (x, t, …),
+    which stand for their dtypes and trailing shapes only; ``fixed``: those after them, as given."""
     from torch._inductor import aoti_compile_and_package  # imported only to compile: ~1.5 s
 
     path = package(stage, brush, consts, device)
-    x = brush.sample(HINT_PAIRS, device=device)  # x and t stand for their shapes and dtypes only
-    t = torch.zeros(HINT_PAIRS, dtype=torch.long, device=device)
+    paired = (brush.sample(HINT_PAIRS, device=device),
+              *(p[:1].expand(HINT_PAIRS, *p.shape[1:]).contiguous() for p in paired[1:]))
     pairs = torch.export.Dim("pairs", min=2, max=MOST_PAIRS)
     with torch.no_grad():
-        stage(brush, x, t, *fixed, **consts)  # eagerly first: state a brush builds lazily (a texture) is then a constant
-        program = torch.export.export(_Stage(stage, brush, consts), (x, t, *fixed),
-                                      dynamic_shapes=(({0: pairs}, {0: pairs}, *[None] * len(fixed)),))  # forward's *tensors
+        stage(brush, *paired, *fixed, **consts)  # eagerly first: state a brush builds lazily (a texture) is then a constant
+        program = torch.export.export(_Stage(stage, brush, consts), (*paired, *fixed),  # forward's *tensors
+                                      dynamic_shapes=(tuple({0: pairs} for _ in paired) + (None,) * len(fixed),))
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
             aoti_compile_and_package(program, package_path=str(Path(tmp) / path.name))
@@ -107,14 +103,16 @@ def _kernel(path: Path, device: torch.device):
     return torch._C._aoti.AOTIModelPackageLoader(str(path), "model", False, 1, -1 if device.index is None else device.index)
 
 
-def fused(stage, brush: Brush, x: Tensor, t: Tensor, *fixed: Tensor, **consts):
-    """``stage(brush, x, t, *fixed, **consts)`` (a function of :mod:`nsp.engine.kernels`) by its
-    compiled kernel, compiled first if this machine has none: the same outputs, for x (P, d) and
-    t (P,) of any batch size P, ``fixed`` tensors of the shapes they had then, the same ``consts``."""
+def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, ...], **consts):
+    """``stage(brush, *paired, *fixed, **consts)`` (a function of :mod:`nsp.engine.kernels`) by its
+    compiled kernel, compiled first if this machine has none: the same outputs, for ``paired``
+    tensors of one row a (stroke, tile) pair (x (P, d), t (P,), …) for any number of pairs P,
+    ``fixed`` tensors of the shapes they had then, the same ``consts``."""
+    x = paired[0]
     if not 2 <= len(x) <= MOST_PAIRS or x.dtype != torch.float32 or (x.requires_grad and torch.is_grad_enabled()):
-        return stage(brush, x, t, *fixed, **consts)  # outside the kernel's batch sizes and dtype; it has no backward
+        return stage(brush, *paired, *fixed, **consts)  # outside the kernel's batch sizes and dtype; it has no backward
     path = package(stage, brush, consts, x.device)
     if not path.exists():
-        compile_kernel(stage, brush, fixed, consts, x.device)
-    out = _kernel(path, x.device).boxed_run([x.contiguous(), t.contiguous(), *fixed])
+        compile_kernel(stage, brush, paired, fixed, consts, x.device)
+    out = _kernel(path, x.device).boxed_run([p.contiguous() for p in paired] + list(fixed))
     return out[0] if len(out) == 1 else tuple(out)

@@ -10,16 +10,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush, Pixels
-
-
-def antialiased(sd: Tensor) -> Tensor:
-    """Box-filtered coverage of a pixel whose centre is ``sd`` pixels outside the edge."""
-    return (0.5 - sd).clamp(0, 1)
-
-
-def soft(sd: Tensor, softness: float = 1.0) -> Tensor:
-    """Sigmoid coverage: differentiable everywhere, a ``softness``-pixel-wide edge."""
-    return torch.sigmoid(-sd / softness)
+from nsp.brushes.geometry import antialiased, soft
 
 
 def tile_offsets(tile: int, like: Tensor) -> tuple[Tensor, Tensor]:
@@ -40,14 +31,15 @@ def near_tiles(brush: Brush, x: Tensor, t: Tensor, *, height: int, width: int, t
 
 
 def shade_tiles(
-    brush: Brush, x: Tensor, t: Tensor, dx: Tensor, dy: Tensor, *, height: int, width: int, tile: int,
+    brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, *, height: int, width: int, tile: int,
     softness: float | None,
 ) -> tuple[Tensor, Tensor]:
-    """Foreground (P, 3, n) and alpha (P, n) of strokes x (P, d) on tiles t (P,) (as in
-    :func:`near_tiles`), whose pixel k lies (dx[k], dy[k]) from the tile's corner (n = tile²,
-    :func:`tile_offsets`); ``softness``: None for :func:`antialiased` edges, else :func:`soft`."""
+    """Foreground (P, 3, n) and alpha (P, n) of strokes x (P, d) keyed ``key`` (P,) int64 (see
+    :class:`~nsp.brushes.base.Pixels`) on tiles t (P,) (as in :func:`near_tiles`), whose pixel k
+    lies (dx[k], dy[k]) from the tile's corner (n = tile², :func:`tile_offsets`); ``softness``:
+    None for :func:`antialiased` edges, else :func:`soft`."""
     cols = math.ceil(width / tile)
     px = ((t % cols) * tile).to(x.dtype)[:, None] + dx
     py = (torch.div(t, cols, rounding_mode="floor") * tile).to(x.dtype)[:, None] + dy
     coverage = antialiased if softness is None else functools.partial(soft, softness=softness)
-    return brush.paint(x, Pixels(px, py, height, width), coverage)
+    return brush.paint(x, Pixels(px, py, height, width, key[:, None]), coverage)

@@ -15,6 +15,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush
+from nsp.brushes.bristles import stroke_keys
 from nsp.engine.fused import fused
 from nsp.engine.kernels import near_tiles, shade_tiles, tile_offsets
 
@@ -116,8 +117,10 @@ def rasterize(
     softness: float | None = None,
     tile: int = 8,
     compile: bool = False,
+    first: int = 0,
 ) -> Tiles:
-    """Evaluate strokes ``x`` (B, d) on the tiles of a ``height``×``width`` canvas they touch.
+    """Evaluate strokes ``x`` (B, d), numbers ``first``, …, ``first`` + B − 1 of their painting,
+    on the tiles of a ``height``×``width`` canvas they touch.
 
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
     before ``brush.paint`` shades their pixels. ``compile`` shades them by the brush's compiled
@@ -125,7 +128,7 @@ def rasterize(
     it (:func:`nsp.engine.fused.pays` tells when that is worth it).
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
-    run = fused if compile else (lambda stage, *args, **consts: stage(*args, **consts))
+    run = fused if compile else (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
@@ -137,7 +140,7 @@ def rasterize(
         for size in reversed(sizes):
             if coarse is not None:
                 b, t = subtiles(b, t, box, height, width, coarse, size, margin)
-            keep = run(near_tiles, brush, x.detach()[b], t, height=height, width=width, tile=size, margin=margin)
+            keep = run(near_tiles, brush, (x.detach()[b], t), (), height=height, width=width, tile=size, margin=margin)
             b, t, coarse = b[keep], t[keep], size
         order, layers = in_layers(t)  # b, in stroke order, stays so in each tile
         b, t = b[order], t[order]
@@ -147,8 +150,12 @@ def rasterize(
     # keeps none, so it shades every pair at once (no copy to join the passes).
     step = max(1, len(b) if compile else PASS_PIXELS // tile**2)
     dx, dy = tile_offsets(tile, x)
-    passes = [run(shade_tiles, brush, xs, ts, dx, dy, height=height, width=width, tile=tile, softness=softness)
-              for xs, ts in zip(x[b].split(step), t.split(step))]
+    if brush.varies(width):
+        key = stroke_keys(brush.seed, torch.arange(first, first + len(x), device=x.device))[b]
+    else:
+        key = t  # an int64 a pair, unread
+    passes = [run(shade_tiles, brush, (xs, ts, ks), (dx, dy), height=height, width=width, tile=tile, softness=softness)
+              for xs, ts, ks in zip(x[b].split(step), t.split(step), key.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
 

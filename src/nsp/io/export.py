@@ -99,7 +99,7 @@ def gif_palette(brush: Brush, strokes: Tensor, height: int, width: int, backgrou
     views = []
     with torch.no_grad():
         for start, end in zip(cuts[:-1], cuts[1:]):
-            canvas = paint_canvas(brush, strokes[start:end], *small, canvas=canvas)
+            canvas = paint_canvas(brush, strokes[start:end], *small, canvas=canvas, first=int(start))
             views.append(to_uint8(canvas))
     return Image.fromarray(np.concatenate(views)).quantize(256, Image.Quantize.FASTOCTREE)
 
@@ -124,9 +124,8 @@ def write_svg(
 ) -> None:
     """Each stroke as the brush's SVG elements, in painting order, on a ``height``×``width`` canvas
     (an oil brush's texture, nsp's or the user's, embedded)."""
-    defs, body = brush.svg_defs(), []
-    for i, p in enumerate(strokes.detach().cpu().double().numpy()):
-        d, e = brush.svg(i, p, height, width)
+    defs, body = [], []
+    for d, e in brush.svg_elements(strokes.detach().cpu().double().numpy(), height, width):
         defs.append(d)
         body.append(e)
     svg = "\n".join(

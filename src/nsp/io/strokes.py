@@ -63,8 +63,11 @@ def save_strokes(path: str | Path, painting: StrokeFile) -> None:
             "background": painting.background,
         },
         # float() of a float32 is exact, and JSON keeps every digit of a Python float.
+        "seed": brush.seed,  # with each stroke's index, what its bristles are drawn from
         "strokes": [dict(zip(brush.params, map(float, row))) for row in painting.strokes.tolist()],
     }
+    if not getattr(brush, "impasto", True):
+        data["impasto"] = False
     if brush.texture_path is not None:
         data["texture"] = str(Path(brush.texture_path).resolve())  # re-renders from any folder
     write_json(path, data, indent=1)
@@ -135,14 +138,17 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
     except OverflowError:  # an integer past any float
         raise StrokeFileError(f"strokes={path}: a stroke parameter is far outside [0, 1]") from None
     _check_range(path, values, spec.params)
-    texture = data.get("texture")
+    texture, seed, impasto = data.get("texture"), data.get("seed", 0), data.get("impasto", True)
     if texture is not None and not isinstance(texture, str):
         raise StrokeFileError(f'strokes={path} is malformed: expected "texture": the path of an image')
-    if texture is not None:
-        try:
-            spec = get_brush(spec.name, texture)
-        except ValueError as error:
-            raise StrokeFileError(f"strokes={path}: its oil texture cannot be used: {error}") from None
+    if not (isinstance(seed, int) and not isinstance(seed, bool) and abs(seed) < 2**63):
+        raise StrokeFileError(f'strokes={path}: its "seed" {str(seed)[:40]!r} is not an integer')
+    if not isinstance(impasto, bool):
+        raise StrokeFileError(f'strokes={path}: its "impasto" {str(impasto)[:40]!r} is not true or false')
+    try:
+        spec = get_brush(spec.name, texture, params if isinstance(params, list) else None, seed=seed, impasto=impasto)
+    except ValueError as error:
+        raise StrokeFileError(f"strokes={path}: its brush cannot be used: {error}") from None
     return StrokeFile(spec, values, canvas["height"], canvas["width"], canvas["background"])
 
 

@@ -175,10 +175,10 @@ class Painter:
                 height, width = level.height, level.width
                 target = resize(detail, (height, width))
                 with torch.no_grad():
-                    canvas = paint_canvas(self.brush, self.strokes(), height, width, self.background)
+                    canvas = paint_canvas(self.brush.plain(), self.strokes(), height, width, self.background)
             x = self._paint_level(level, target, canvas)
-            with torch.no_grad():
-                canvas = paint_canvas(self.brush, x, height, width, canvas=canvas)
+            with torch.no_grad():  # the mean of the bristles: blocks are sampled down to the working size
+                canvas = paint_canvas(self.brush.plain(), x, height, width, canvas=canvas)
             self._done.append(x)
             self._active = None
             for callback in self.callbacks:

@@ -80,7 +80,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None
     device = resolve_device(cfg.device)
     try:
         parse_color(cfg.background)
-        brush = get_brush(cfg.brush.name, cfg.brush.texture)
+        brush = get_brush(cfg.brush.name, cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto)
         photo = load_image(cfg.image, max_side=max(cfg.work_size, cfg.render_size, SCORE_SIZE,
                                                      cfg.style.size if cfg.style.image else 0))
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting

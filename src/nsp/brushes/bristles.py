@@ -1,0 +1,156 @@
+"""The oil brush's bristle model: paint laid by a brush of bristles, evaluated at every pixel.
+
+The paint's thickness over a stroke is a height field H: value noise stretched ``STRETCH`` times
+along the stroke (bristle streaks), summed over four scales from clumps of bristles (three track
+widths) to fibres (a sixth of one), each a fixed width in canvas units (``TRACK`` canvas widths a
+track), so a large stroke carries more streaks than a small one and a larger render shows finer
+ones, never magnified texels. A scale is drawn only where its cells span enough pixels to be
+seen; below that it is replaced by its mean (a band-limited pattern, like a mipmap), and at the
+painter's working resolution, where every scale is below a pixel, the soft mode sees the mean
+paint of the same model.
+
+- **Load**: paint lies where H exceeds a threshold set by the dryness D, so that a fraction
+  1 − D is covered; D rises toward the tail (dry brush: the load breaks up along the streaks)
+  and toward the sides (ragged edges). Scales too fine to draw blur the threshold instead.
+- **Head**: rounded; the tail's outer streaks end early (a taper).
+- **Impasto**: H's slope across the stroke, lit from the upper left: slopes facing the light are
+  lighter, the others darker, by as much (the mean colour is the stroke's); thicker streaks are a
+  little darker too.
+
+Randomness comes from an integer hash of the stroke's key (its index in the painting and the
+painting's seed) and the lattice cell: deterministic, different for every stroke, identical at
+every render size.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+from torch import Tensor
+
+TRACK = 1 / 480  # a bristle track's width, in canvas widths (2.1 px at 1024, 8.5 px at 4096)
+SCALES = (3.0, 1.0, 0.4, 0.16)  # the noise's cells across, in tracks: clumps, tracks, fibres
+GRAIN = (0.2, 0.6, 0.4, 0.25)  # each scale's share of the height H, which the load and the streaks follow
+STRETCH = 5.0  # cells are this many times longer along the stroke than across
+NOISE_STD = 0.2145  # of value noise (measured, 2·10⁶ samples)
+TAIL = (0.7, 0.7)  # dryness from 70 % of the way to the tail: none → 70 %
+SIDES = (0.9, 0.3)  # the outer tenth of the stroke's height: up to 30 % dry (ragged edges)
+ROUND = 0.6  # the head's rounding radius, a fraction of the stroke's half height
+RAGGED = 4.0  # how far a track's start may stray from the head's curve, in track widths (≤ 20 % of the length)
+TAPER = 0.5  # the tail's outer streaks end this fraction of the half height early
+STREAKS = 0.03  # thicker paint is darker by this much per standard deviation of H
+SHARP = 0.15  # the least blur of the threshold, in standard deviations of H (antialiasing)
+LIGHT = (-1 / math.sqrt(2), -1 / math.sqrt(2))  # toward the light, on screen (x right, y down)
+RELIEF = (0.15, 0.5, 0.3, 0.08)  # each scale's share of the relief: its ridges lit, clumps' barely
+LIT = 0.35  # the change of the paint's lightness per unit of slope toward the light
+_MASK = 0xFFFFFFFF
+_CROSS, _LONG = 0x27D4EB2F, 0x165667B1  # a lattice step's change of the hashed integer, across and along
+
+
+def mix(h: Tensor) -> Tensor:
+    """An integer hash: (…) int64 in [0, 2³²) -> (…) int64 in [0, 2³²) (the product stays < 2⁶³)."""
+    h = ((h ^ (h >> 16)) * 0x7FEB352D) & _MASK
+    return h ^ (h >> 15)
+
+
+def stroke_keys(seed: int, index: Tensor) -> Tensor:
+    """Each stroke's key from the painting's ``seed`` and the strokes' ``index`` (B,) int64: (B,)."""
+    return mix(((index & _MASK) * 0x2545F491 + ((seed * 0x85EBCA6B) & _MASK)) & _MASK)
+
+
+def uniform(h: Tensor) -> Tensor:
+    """A hash -> float in [0, 1)."""
+    return (h & 0xFFFFFF).to(torch.float32) / float(1 << 24)
+
+
+def ramp(lo: float, hi: float, x: Tensor) -> Tensor:
+    """0 below ``lo``, 1 above ``hi``, linear between."""
+    return ((x - lo) * (1 / (hi - lo))).clamp(0, 1)
+
+
+def drawn(scale: float) -> bool:
+    """Whether any of the model's detail is drawn on a canvas ``scale`` px wide (else each stroke's
+    paint is the same mean, whatever its key)."""
+    return seen(max(SCALES) * TRACK * scale) > 0
+
+
+def seen(pixels: float) -> float:
+    """How much of a pattern whose cells span ``pixels`` px is drawn (1) or replaced by its mean (0)."""
+    t = min(max(pixels - 1.0, 0.0), 1.0)
+    return t * t * (3 - 2 * t)
+
+
+def light_across(theta: Tensor) -> tuple[Tensor, Tensor]:
+    """The light's direction in a stroke's frame (along, across), for its angle θ (P,): (P, 1) each."""
+    angle = theta * math.pi
+    cos, sin = torch.cos(angle)[:, None], torch.sin(angle)[:, None]
+    return LIGHT[0] * cos + LIGHT[1] * sin, -LIGHT[0] * sin + LIGHT[1] * cos
+
+
+@dataclass(frozen=True)
+class Surface:
+    """Paint on a stroke's pixels: ``cover`` in [0, 1] (P, N), the alpha inside the stroke's
+    ``outline`` (a signed distance in px, negative inside, (P, N)); its colour is the stroke's
+    colour there times ``shade`` ((P, N); None: 1, where no detail is drawn): linear in the
+    stroke's colours, as colour mode's recolouring needs."""
+
+    cover: Tensor
+    shade: Tensor | None
+    outline: Tensor
+
+
+def value_noise(cross: Tensor, long: Tensor, seed: Tensor) -> tuple[Tensor, Tensor]:
+    """Value noise at lattice coordinates (cross, long) (P, N), knots drawn from ``seed`` (P, 1):
+    its value in [0, 1] and its slope along ``cross``, each (P, N)."""
+    i, j = torch.floor(cross), torch.floor(long)
+    fi, fj = cross - i, long - j
+    corner = seed + i.to(torch.int64) * _CROSS + j.to(torch.int64) * _LONG
+    h00, h10 = uniform(mix(corner & _MASK)), uniform(mix((corner + _CROSS) & _MASK))
+    h01, h11 = uniform(mix((corner + _LONG) & _MASK)), uniform(mix((corner + _CROSS + _LONG) & _MASK))
+    wi, wj = fi * fi * (3 - 2 * fi), fj * fj * (3 - 2 * fj)
+    near, far = h00 + (h10 - h00) * wi, h01 + (h11 - h01) * wi
+    return near + (far - near) * wj, 6 * fi * (1 - fi) * ((h10 - h00) * (1 - wj) + (h11 - h01) * wj)
+
+
+def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key: Tensor, scale: float,
+            light: tuple[Tensor, Tensor] | None) -> Surface:
+    """The bristle model at pixels ``s`` px from the head (``u`` = s / length, clamped to [0, 1])
+    and ``c`` px across the centre line (P, N), of strokes ``length`` px long and 2·``half_h`` px
+    high (P,), keyed ``key`` (P, 1), on a canvas ``scale`` px wide; ``light`` from
+    :func:`light_across` (None: no impasto)."""
+    half_h = half_h.clamp(min=0.5)[:, None]
+    side = (c / half_h).abs().clamp(max=1)
+    dry = 1 - (1 - TAIL[1] * ramp(TAIL[0], 1.0, u)) * (1 - SIDES[1] * ramp(SIDES[0], 1.0, side))
+    radius = torch.minimum(ROUND * half_h, 0.5 * length[:, None])
+    squared = side * side
+    head = radius * (1 - torch.sqrt((1 - squared).clamp(min=1e-6))) - s  # the head's rounded corners
+    tail = s - (length[:, None] - TAPER * half_h * squared)  # the tail's tapered ones
+    width = TRACK * scale  # a track, in pixels
+    if seen(width):
+        jag, _ = value_noise(c / width, 0 * c, key + 0x2F6B2E1D)  # each track starts a little early or late
+        head = head + seen(width) * torch.minimum(RAGGED * width * torch.ones_like(radius), 0.2 * length[:, None]) * (jag - 0.5)
+    outline = torch.maximum(head, tail)
+    height = slope = 0
+    unseen = 0.0  # the variance of H left undrawn
+    for k, (cells, grain, relief) in enumerate(zip(SCALES, GRAIN, RELIEF)):
+        cell = cells * width  # pixels
+        weight = seen(cell)
+        unseen += (1 - weight**2) * (grain * NOISE_STD) ** 2
+        if weight < 0.01:
+            continue
+        value, rise = value_noise(c / cell, s / (STRETCH * cell), key + k * 0x61C88647)
+        height = height + weight * grain * (value - 0.5)
+        slope = slope + weight * relief / cells * rise
+    spread = math.sqrt(sum((g * NOISE_STD) ** 2 for g in GRAIN))
+    if unseen > spread**2 - 1e-9:  # nothing drawn: the mean of the model
+        return Surface(1 - dry, None, outline)
+    # P(H > level) = 1 − D, and the scales left undrawn (taken as Gaussian) blur the threshold: the
+    # cover expected over them, so its mean is the same at every size.
+    level = spread * math.sqrt(2) * torch.erfinv((2 * dry - 1).clamp(-0.998, 0.998))
+    blur = max(math.sqrt(unseen), SHARP * spread)
+    cover = 0.5 * (1 + torch.erf((height - level) / (blur * math.sqrt(2))))
+    shade = 1 - STREAKS * height / spread
+    if light is not None:  # Lambert's law for small slopes: lighter facing the light, darker away; mean 1
+        shade = shade * (1 - LIT * slope * light[1])  # a rise across tilts the surface away from +across
+    return Surface(cover, shade, outline)
