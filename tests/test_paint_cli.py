@@ -236,6 +236,7 @@ def test_a_painting_interrupted_before_its_first_stroke_leaves_a_stroke_file_tha
 
 
 def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_stroke_file(photo, tmp_path):
+    from nsp.brushes.texture import load_texture
     from nsp.io.export import write_svg
     from nsp.render import RenderConfig, render
 
@@ -248,7 +249,8 @@ def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_str
     tiny = [o for o in TINY if not o.startswith("animation_frames")]  # the animation as nsp.render draws one
     paint(config(f"image={photo}", f"output_dir={out}", f"brush.texture={texture}", *tiny))
     painting = load_strokes(out / "strokes.json")
-    assert painting.brush.texture_path == str(texture)
+    assert torch.equal(load_texture(painting.brush.texture_path), load_texture(texture))  # carried in the file
+    assert str(tmp_path) not in (out / "strokes.json").read_text()  # it names no file
     for name, size in (("final.png", 96), ("painting.svg", 96), ("animation.gif", 48)):
         again = render(OmegaConf.merge(OmegaConf.structured(RenderConfig),
                                        {"strokes": str(out / "strokes.json"), "out": str(tmp_path / name), "size": size}))

@@ -161,3 +161,39 @@ def test_npz_strokes_must_be_finite(tmp_path):
                [[0.3], [np.nan], [1.0]])
     with pytest.raises(StrokeFileError, match=r"t.npz: 2 of 3 strokes hold NaN or infinite values \(first: stroke 1\)"):
         load_strokes(path, brush="tape")
+
+
+def test_a_stroke_file_carries_its_texture_and_names_no_file_to_read(tmp_path):
+    from PIL import Image
+
+    from nsp.brushes import get_brush
+    from nsp.brushes.texture import load_texture
+
+    Image.fromarray(np.tile(np.arange(0, 256, 8, dtype=np.uint8), (8, 1))).save(tmp_path / "secret.png")
+    brush = get_brush("oilpaint", texture=str(tmp_path / "secret.png"))
+    save_strokes(tmp_path / "p.json", StrokeFile(brush, brush.sample(3, torch.Generator().manual_seed(0))))
+    text = (tmp_path / "p.json").read_text()
+    assert "secret" not in text and str(tmp_path) not in text
+    assert torch.equal(load_texture(load_strokes(tmp_path / "p.json").brush.texture_path), load_texture(tmp_path / "secret.png"))
+    data = json.loads(text)
+    data["texture"] = str(tmp_path / "secret.png")  # a file that names a local image is refused, unread
+    (tmp_path / "named.json").write_text(json.dumps(data))
+    with pytest.raises(StrokeFileError, match='its "texture" is not an embedded image .* names no file to read'):
+        load_strokes(tmp_path / "named.json")
+
+
+def test_a_texture_that_is_not_a_plain_image_file_is_refused_at_once(tmp_path, monkeypatch):
+    import os
+
+    from PIL import Image
+
+    from nsp.brushes import get_brush
+    from nsp.errors import BadInput
+
+    os.mkfifo(tmp_path / "pipe.png")  # opening it would block forever
+    with pytest.raises(BadInput, match="pipe.png: no such image file"):
+        get_brush("oilpaint", texture=str(tmp_path / "pipe.png"))
+    Image.new("L", (64, 64)).save(tmp_path / "big.png")
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 1000)  # as a header claiming 100000 × 100000 would be
+    with pytest.raises(BadInput, match="big.png is not a readable image .*decompression bomb"):
+        get_brush("oilpaint", texture=str(tmp_path / "big.png"))

@@ -19,7 +19,7 @@ from nsp.brushes import bristles
 from nsp.brushes.base import Brush, Pixels
 from nsp.brushes.svg import png_data_uri
 from nsp.brushes.tape import rectangle, rectangle_extent
-from nsp.brushes.texture import load_texture
+from nsp.brushes.texture import EMBEDDED, load_texture
 from nsp.brushes.geometry import antialiased, box
 
 _OPAQUE = 0.4  # a user texture's values above this are fully covered with paint
@@ -33,15 +33,17 @@ def sample(texture: Tensor, u: Tensor, v: Tensor) -> Tensor:
 
 
 @functools.cache
-def _digest(path: str) -> str:
-    """A user texture's identity: its bytes, hashed."""
-    return hashlib.sha1(Path(path).read_bytes()).hexdigest()[:12]
+def _digest(source: str) -> str:
+    """A user texture's identity: its bytes (a file's, or an embedded image's), hashed."""
+    data = source.encode() if source.startswith(EMBEDDED) else Path(source).expanduser().read_bytes()
+    return hashlib.sha1(data).hexdigest()[:12]
 
 
 @dataclass(frozen=True, eq=False)
 class OilPaint(Brush):
     """Oil paint. Its paint is the bristle model (:mod:`nsp.brushes.bristles`), or a user's
-    grayscale image stretched over each stroke (``texture_path``); ``impasto`` lights its relief."""
+    grayscale image stretched over each stroke (``texture_path``: a path, or an embedded PNG, see
+    :mod:`nsp.brushes.texture`); ``impasto`` lights its relief."""
 
     impasto: bool = True
     detail: bool = True  # False: the bristles' mean at any size (see Brush.plain)

@@ -13,6 +13,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import BRUSHES, Brush, get_brush
+from nsp.brushes.texture import EMBEDDED, embedded
 from nsp.engine.canvas import parse_color
 from nsp.errors import BadInput
 from nsp.io.export import write_json
@@ -69,7 +70,7 @@ def save_strokes(path: str | Path, painting: StrokeFile) -> None:
     if not getattr(brush, "impasto", True):
         data["impasto"] = False
     if brush.texture_path is not None:
-        data["texture"] = str(Path(brush.texture_path).resolve())  # re-renders from any folder
+        data["texture"] = embedded(brush.texture_path)  # the image itself: a stroke file names no file to read
     write_json(path, data, indent=1)
 
 
@@ -139,8 +140,9 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
         raise StrokeFileError(f"strokes={path}: a stroke parameter is far outside [0, 1]") from None
     _check_range(path, values, spec.params)
     texture, seed, impasto = data.get("texture"), data.get("seed", 0), data.get("impasto", True)
-    if texture is not None and not isinstance(texture, str):
-        raise StrokeFileError(f'strokes={path} is malformed: expected "texture": the path of an image')
+    if texture is not None and not (isinstance(texture, str) and texture.startswith(EMBEDDED)):
+        raise StrokeFileError(f'strokes={path}: its "texture" is not an embedded image ({EMBEDDED}…); a stroke '
+                              "file carries its texture, it names no file to read")
     if not (isinstance(seed, int) and not isinstance(seed, bool) and abs(seed) < 2**63):
         raise StrokeFileError(f'strokes={path}: its "seed" {str(seed)[:40]!r} is not an integer')
     if not isinstance(impasto, bool):
