@@ -119,6 +119,25 @@ def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeyp
     assert not (out / "metrics.json").exists()
 
 
+def test_a_painting_interrupted_while_its_files_are_written_keeps_its_strokes_and_picture(photo, tmp_path, monkeypatch):
+    from nsp.painter import run
+
+    info = run.log.info
+
+    def sigterm(message, *args):  # SIGTERM arrives as KeyboardInterrupt (nsp.cli): here as "writing …" prints
+        info(message, *args)
+        if message.startswith("writing"):
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(run.log, "info", sigterm)
+    out = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        paint(config(f"image={photo}", f"output_dir={out}", *TINY))
+    assert len(load_strokes(out / "strokes.json").strokes) == 12  # the whole painting
+    assert Image.open(out / "final.png").size == (96, 64)
+    assert not (out / "metrics.json").exists()
+
+
 def test_painting_seconds_count_the_work_after_the_last_stroke_is_placed(photo, tmp_path, monkeypatch):
     from nsp.painter.painter import Painter
 

@@ -180,23 +180,23 @@ def paint(cfg: DictConfig) -> dict:
         painting = bar.seconds
         on_faces = f" ({counted(len(faces), 'face')} given a level of {'its' if len(faces) == 1 else 'their'} own)" if faces else ""
         phases.append(f"painted {counted(len(strokes), painter.brush.name + ' stroke')}{on_faces} in {painting:.1f} s")
-        if image is not None:
-            write_png(out / "style.png", image)
-            try:
-                strokes, background, seconds = paint_style(cfg, painter, strokes, photo, image, style, writer)
-            except BaseException:
-                with shielded():
-                    write_strokes_and_png(out, strokes, *shared)  # the unstyled painting
-                raise
-            shared = (*shared[:2], background, shared[3])  # the canvas recoloured with the strokes
-            phases.append(f"styled in {seconds:.1f} s")
-        frames = len(frame_ends(len(strokes), cfg.animation_frames))
-        log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
-        files = time.perf_counter()
-        with ThreadPoolExecutor(2) as pool:  # final.png and its scores, and the animation, at once: a core each
-            scored = pool.submit(lambda: similarity(write_strokes_and_png(out, strokes, *shared), photo))
-            pool.submit(write_vector_files, out, strokes, *shared, cfg.animation_size, cfg.animation_frames).result()
-            scores = scored.result()
+        try:  # from here to the last file, an interruption or a failure still leaves what was painted
+            if image is not None:
+                write_png(out / "style.png", image)
+                styled, background, seconds = paint_style(cfg, painter, strokes, photo, image, style, writer)
+                strokes, shared = styled, (*shared[:2], background, shared[3])  # the canvas recoloured with them
+                phases.append(f"styled in {seconds:.1f} s")
+            frames = len(frame_ends(len(strokes), cfg.animation_frames))
+            log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
+            files = time.perf_counter()
+            with ThreadPoolExecutor(2) as pool:  # final.png and its scores, and the animation, at once: a core each
+                scored = pool.submit(lambda: similarity(write_strokes_and_png(out, strokes, *shared), photo))
+                pool.submit(write_vector_files, out, strokes, *shared, cfg.animation_size, cfg.animation_frames).result()
+                scores = scored.result()
+        except BaseException:
+            with shielded():
+                write_strokes_and_png(out, strokes, *shared)  # the painting (styled where that step finished)
+            raise
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)
     metrics = scores | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
