@@ -57,6 +57,30 @@ def test_a_named_dir_that_holds_a_run_is_refused_before_anything_is_written(tmp_
     assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")} == before
 
 
+def test_a_named_dir_is_claimed_so_two_runs_started_together_never_share_it(tmp_path):
+    import os
+
+    with initialize_config_dir(str(ROOT / "conf" / "paint"), version_base="1.3"):
+        cfg = compose("paint", overrides=[f"hydra.run.dir={tmp_path / 'run'}"], return_hydra_config=True)
+    RunDirs().on_run_start(copy.deepcopy(cfg))  # this process takes it
+    assert (tmp_path / "run" / ".nsp-run").read_text() == str(os.getpid())
+    with pytest.raises(SystemExit) as refused:  # a second run while the first still goes
+        RunDirs().on_run_start(copy.deepcopy(cfg))
+    assert refused.value.code == 2
+    (tmp_path / "run" / ".nsp-run").write_text("999999999")  # a run that ended before writing anything
+    RunDirs().on_run_start(copy.deepcopy(cfg))
+    HydraConfig.instance().cfg = None
+    assert (tmp_path / "run" / ".nsp-run").read_text() == str(os.getpid())
+    assert [p.name for p in (tmp_path / "run").iterdir()] == [".nsp-run"]
+
+
+def test_of_two_paintings_started_together_into_one_named_dir_one_runs_and_one_is_refused(tmp_path):
+    runs = [command("nsp.paint", *TINY_PAINT, f"seed={seed}", f"hydra.run.dir={tmp_path / 'run'}") for seed in (0, 1)]
+    codes = sorted(run.wait(timeout=300) for run in runs)
+    assert codes == [0, 2]
+    assert len(load_strokes(tmp_path / "run" / "strokes.json").strokes) == 8
+
+
 def test_default_dirs_are_claimed_once_so_runs_started_in_the_same_second_never_share_one(tmp_path):
     with initialize_config_dir(str(ROOT / "conf" / "paint"), version_base="1.3"):
         cfg = compose("paint", overrides=[], return_hydra_config=True)

@@ -51,6 +51,7 @@ def in_sweep() -> bool:
     return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
 
 
+CLAIM = ".nsp-run"  # in a dir named by hydra.run.dir: the process id of the run that took it
 STOPPED = ".interrupted"  # in a sweep's dir: Ctrl-C or SIGTERM reached the sweep; no further job starts
 
 
@@ -164,8 +165,12 @@ class RunDirs(Callback):
         if config.get("ckpt_path") and path.resolve() in Path(config.ckpt_path).resolve().parents:
             return  # resuming in place
         if any(o.split("=", 1)[0].lstrip("+~") == key for o in config.hydra.overrides.hydra):
-            if path.is_dir() and any(p.name != ".hydra" and p.suffix != ".log" for p in path.iterdir()):
+            if path.is_dir() and any(p.name not in (".hydra", CLAIM) and p.suffix != ".log" for p in path.iterdir()):
                 print(f"error: {key}={path} already holds a run; name a new dir, or remove that one first",
+                      file=sys.stderr)
+                sys.exit(BAD_INPUT)
+            if key == "hydra.run.dir" and not _claim_named(path):
+                print(f"error: {key}={path} is taken by another run that is still going; name a new dir",
                       file=sys.stderr)
                 sys.exit(BAD_INPUT)
             return
@@ -179,6 +184,30 @@ class RunDirs(Callback):
                 fresh = path.with_name(f"{path.name}_{n}")
         with read_write(config.hydra):  # made read-only by HydraConfig above
             OmegaConf.update(config, key, str(fresh))
+
+
+def _claim_named(path: Path) -> bool:
+    """Claim a dir the user named for this process: its :data:`CLAIM` file, linked into place only
+    if absent (so of two runs started together, one gets it) or left by a process that has ended."""
+    path.mkdir(parents=True, exist_ok=True)
+    claim, mine = path / CLAIM, path / f"{CLAIM}.{os.getpid()}"
+    mine.write_text(str(os.getpid()))
+    try:
+        for _ in range(2):
+            try:
+                os.link(mine, claim)  # atomic, and the claim holds its process id from the start
+                return True
+            except FileExistsError:
+                try:
+                    os.kill(int(claim.read_text()), 0)  # signal 0: whether that process still runs
+                    return False
+                except PermissionError:  # another user's process: it runs
+                    return False
+                except (ProcessLookupError, ValueError, OSError):  # it ended (or died) before its run began
+                    claim.unlink(missing_ok=True)
+        return False
+    finally:
+        mine.unlink(missing_ok=True)
 
 
 @contextmanager
