@@ -228,6 +228,34 @@ def test_a_kernel_is_compiled_once_into_the_cache_and_falls_back_where_it_cannot
     assert fg.requires_grad
 
 
+@pytest.mark.parametrize("content", [b"", b"PK\x03\x04 truncated", bytes(range(256)) * 4], ids=["empty", "truncated", "random"])
+def test_a_corrupt_kernel_in_the_cache_is_removed_and_the_render_goes_on_without_it(content, generator, monkeypatch,
+                                                                                    tmp_path, caplog):
+    from nsp.engine import fused
+    from nsp.engine.kernels import shade_tiles, tile_offsets
+
+    brush, consts = BRUSHES["tape"], dict(height=16, width=24, tile=8, softness=None)
+    monkeypatch.setattr(fused, "CACHE", tmp_path)
+    x, t, key = brush.sample(5, generator), torch.arange(5) % 6, torch.arange(5)
+    dx, dy = tile_offsets(8, x)
+    path = fused.package(shade_tiles, brush, consts, x.device)
+    path.parent.mkdir(parents=True)
+    path.write_bytes(content)
+    out = fused.fused(shade_tiles, brush, (x, t, key), (dx, dy), **consts)
+    assert all(torch.equal(a, b) for a, b in zip(out, shade_tiles(brush, x, t, key, dx, dy, **consts)))
+    assert not path.exists() and "could not be loaded" in caplog.text
+
+
+def test_an_unwritable_kernel_cache_renders_without_compiling(generator, monkeypatch, tmp_path, caplog):
+    from nsp.engine import fused
+
+    (tmp_path / "file").write_text("")
+    monkeypatch.setattr(fused, "CACHE", tmp_path / "file" / "kernels")  # its parent is a file: nothing can be made
+    x = moderate(BRUSHES["tape"], 10, generator)
+    assert torch.equal(paint_canvas(BRUSHES["tape"], x, 16, 24, compile=True), paint_canvas(BRUSHES["tape"], x, 16, 24))
+    assert "cannot write" in caplog.text
+
+
 def test_paint_canvas_compiled_equals_eager(generator):
     brush = BRUSHES["oilpaint"]  # its bristles drawn at this canvas's size: hashed noise, lit relief
     x = moderate(brush, 40, generator)

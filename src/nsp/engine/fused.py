@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import logging
 import os
 import tempfile
 from pathlib import Path
@@ -22,6 +23,7 @@ from nsp.brushes.base import Brush
 from nsp.engine import kernels
 from nsp.engine.kernels import near_tiles, shade_tiles
 
+log = logging.getLogger(__name__)
 CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" / "kernels"
 
 # Eager rendering, nanoseconds per pixel of the strokes' bounding boxes (a stroke's culled tiles are
@@ -112,7 +114,17 @@ def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, 
     if not 2 <= len(x) <= MOST_PAIRS or x.dtype != torch.float32 or (x.requires_grad and torch.is_grad_enabled()):
         return stage(brush, *paired, *fixed, **consts)  # outside the kernel's batch sizes and dtype; it has no backward
     path = package(stage, brush, consts, x.device)
-    if not path.exists():
-        compile_kernel(stage, brush, paired, fixed, consts, x.device)
-    out = _kernel(path, x.device).boxed_run([p.contiguous() for p in paired] + list(fixed))
+    try:
+        if not path.exists():
+            compile_kernel(stage, brush, paired, fixed, consts, x.device)
+        kernel = _kernel(path, x.device)
+    except OSError as err:  # a cache that cannot be written: this render goes without
+        log.warning(f"compiled kernels: cannot write {CACHE} ({err.strerror or err}); rendering without them")
+        return stage(brush, *paired, *fixed, **consts)
+    except RuntimeError as err:  # a package that cannot be loaded (truncated, empty, not one): compiled afresh next time
+        path.unlink(missing_ok=True)
+        log.warning(f"compiled kernels: {path.name} could not be loaded ({str(err).splitlines()[0]}); removed it, "
+                    "rendering without it")
+        return stage(brush, *paired, *fixed, **consts)
+    out = kernel.boxed_run([p.contiguous() for p in paired] + list(fixed))
     return out[0] if len(out) == 1 else tuple(out)
