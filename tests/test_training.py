@@ -204,3 +204,30 @@ def test_ddp_on_cpu_splits_the_strokes_syncs_the_metrics_and_writes_one_run(tmp_
     assert (metrics["steps"], metrics["status"]) == (2, "completed") and "test/psnr" in metrics
     assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.suffix in (".json", ".ckpt")) == [
         "checkpoints/best.ckpt", "checkpoints/last.ckpt", "metrics.json", "rank0.json", "rank1.json"]
+
+
+def test_training_that_diverges_stops_at_that_step_keeping_the_last_finite_checkpoint(tmp_path):
+    from nsp.errors import RunFailed
+
+    class Diverge(L.Callback):  # what a learning rate far too high does, at step 6 (a checkpoint was saved at 4)
+        def on_train_batch_end(self, trainer, pl_module, outputs, batch, batch_idx):
+            if trainer.global_step == 6:
+                with torch.no_grad():
+                    next(pl_module.parameters()).fill_(float("nan"))
+
+    cfg = compose_train(tmp_path, "renderer=dcgan", "brush=tape", "data.num_workers=0")
+    with pytest.raises(RunFailed, match=r"training diverged at step 6: .*the last finite checkpoint: .*last\.ckpt"):
+        train(cfg, callbacks=[Diverge()])
+    metrics = json.loads((tmp_path / "metrics.json").read_text(), parse_constant=lambda name: pytest.fail(name))
+    assert metrics["status"] == "failed" and metrics["steps"] == 6
+    state = torch.load(tmp_path / "checkpoints" / "last.ckpt", weights_only=True)
+    assert state["global_step"] == 4 and all(torch.isfinite(v).all() for v in state["state_dict"].values())
+
+
+def test_a_diverging_training_command_is_one_line_and_exit_1(tmp_path):
+    result = subprocess.run([sys.executable, "-m", "nsp.train", "renderer=dual", "brush=tape", "trainer.max_steps=8",
+                             "data.epoch_size=256", "model.optimizer.lr=1e6", "data.num_workers=0",
+                             f"hydra.run.dir={tmp_path}"], capture_output=True, text=True)
+    assert result.returncode == 1
+    assert result.stderr.strip().splitlines()[-1].startswith("error: training diverged at step ")
+    assert json.loads((tmp_path / "metrics.json").read_text())["status"] == "failed"

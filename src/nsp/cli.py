@@ -39,7 +39,7 @@ from omegaconf import DictConfig, OmegaConf, read_write
 from omegaconf.errors import OmegaConfBaseException
 
 from nsp.config import BRUSH_NAMES, CONF
-from nsp.errors import BadInput
+from nsp.errors import BadInput, RunFailed
 
 
 FAILED = 1  # some work failed (a crash, or jobs of a sweep)
@@ -79,10 +79,10 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
         return None
     try:
         return work(cfg)
-    except (BadInput, InstantiationException) as error:  # a value the work, or a class it builds, refuses
+    except (BadInput, InstantiationException, RunFailed) as error:  # a value refused, or a run that could not go on
         message = _one_line(error)
         if stop is None:
-            fail(message)
+            fail(message, FAILED if isinstance(error, RunFailed) else BAD_INPUT)
         record(out, "failed", message)
         print(f"error: {out.name}: {message}", file=sys.stderr)
     except Exception as error:
@@ -475,7 +475,8 @@ def _misspelt_key(overrides: list, tree: dict) -> str | None:
     return None
 
 
-def fail(message: str) -> NoReturn:
-    """The end of every command given a bad input: the one line, ``error: …``, and :data:`BAD_INPUT`."""
+def fail(message: str, code: int = BAD_INPUT) -> NoReturn:
+    """The end of every command given a bad input (or, ``code`` :data:`FAILED`, of a run that could not
+    go on): the one line, ``error: …``, and the exit code."""
     print(message if message.startswith("error: ") else f"error: {message}", file=sys.stderr)
-    sys.exit(BAD_INPUT)
+    sys.exit(code)

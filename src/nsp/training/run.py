@@ -4,6 +4,7 @@ describes (``output_dir`` set; no Hydra needed) and writes checkpoints, TensorBo
 from __future__ import annotations
 
 import logging
+import math
 import time
 import warnings
 from contextlib import contextmanager
@@ -17,6 +18,7 @@ from pytorch_lightning.callbacks import Callback, LearningRateMonitor, ModelChec
 from pytorch_lightning.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 
+from nsp.errors import RunFailed
 from nsp.io.export import write_json
 from nsp.renderers.checkpoint import check_checkpoint
 from nsp.training.data import StrokeData
@@ -41,6 +43,17 @@ class SaveOnInterrupt(Callback):
     def on_exception(self, trainer: L.Trainer, pl_module: L.LightningModule, exception: BaseException) -> None:
         if isinstance(exception, (KeyboardInterrupt, SIGTERMException)):
             trainer.save_checkpoint(self.path)
+
+
+class StopOnNonFinite(Callback):
+    """Stops training at the first step whose loss or updated weights are not finite, before any
+    checkpoint holds them: :class:`~nsp.errors.RunFailed` names the step."""
+
+    def on_train_batch_end(self, trainer: L.Trainer, pl_module: L.LightningModule, outputs, batch, batch_idx: int) -> None:
+        loss = outputs["loss"] if isinstance(outputs, dict) else outputs
+        if not torch.isfinite(loss).all() or not all(torch.isfinite(p).all() for p in pl_module.parameters()):
+            raise RunFailed(f"training diverged at step {trainer.global_step}: the loss or the weights are not finite "
+                            f"(loss {float(loss):g}); try a lower model.optimizer.lr")
 
 
 class ValidateLastStep(Callback):
@@ -98,6 +111,7 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
     last_validation = ValidateLastStep()
     callbacks = [
         *callbacks,
+        StopOnNonFinite(),  # before the checkpoints: Lightning calls ModelCheckpoint's hooks last
         last_validation,
         # no version counter: a resumed run keeps best.ckpt and last.ckpt current in place
         ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True,
@@ -119,6 +133,10 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
     except SystemExit:  # Lightning exits after Ctrl-C or SIGTERM, once last.ckpt is saved
         _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
         raise KeyboardInterrupt from None
+    except RunFailed as error:
+        _finish(trainer, logger, cfg, {}, start, "failed")
+        kept = checkpoints / "last.ckpt"
+        raise RunFailed(f"{error}; {f'the last finite checkpoint: {kept}' if kept.exists() else 'no checkpoint was saved'}") from None
     trainer.save_checkpoint(checkpoints / "last.ckpt")  # the final step's, also where max_steps ends mid-epoch
     # The final model's validation scores: fit's last pass, unless that was not of the final model (a run
     # resumed at its last step trains none; trainer.check_val_every_n_epoch may skip the last epoch).
@@ -152,7 +170,7 @@ def quiet_lightning() -> Iterator[None]:
 
 def _finish(trainer: L.Trainer, logger: RunLogger, cfg: DictConfig, scores, start: float, status: str) -> dict:
     """Write ``metrics.json`` and the HPARAMS entry (the run's settings and final scores); return the metrics."""
-    metrics = {k: round(float(scores[k]), 3) for k in METRICS if k in scores} | {
+    metrics = {k: round(float(scores[k]), 3) for k in METRICS if k in scores and math.isfinite(float(scores[k]))} | {
         "steps": trainer.global_step,
         "seconds": round(time.perf_counter() - start, 1),
         "renderer": str(cfg.renderer.name),
