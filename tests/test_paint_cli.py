@@ -221,7 +221,7 @@ def test_command_line_errors_are_one_line_with_a_nonzero_exit(tmp_path):
         "error: image=nowhere.png: no such file; give a PNG/JPEG path or one of: astronaut, chelsea, coffee, "
         "rocket, flower, china"
     ]
-    assert {p.name for p in (tmp_path / "run").iterdir()} <= {".hydra", "paint.log"}
+    assert {p.name for p in (tmp_path / "run").iterdir()} <= {".hydra", "paint.log", ".nsp-run"}  # and its claim
 
     result = run("-m", "brush=tape,oil", f"hydra.sweep.dir={tmp_path / 'sweep'}", cwd=tmp_path)
     assert result.returncode != 0 and not (tmp_path / "sweep").exists()
