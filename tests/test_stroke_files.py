@@ -1,5 +1,6 @@
 """nsp's JSON stroke files round-trip exactly; reference .npz files import with their geometry."""
 import json
+import re
 
 import numpy as np
 import pytest
@@ -197,3 +198,12 @@ def test_a_texture_that_is_not_a_plain_image_file_is_refused_at_once(tmp_path, m
     monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 1000)  # as a header claiming 100000 × 100000 would be
     with pytest.raises(BadInput, match="big.png is not a readable image .*decompression bomb"):
         get_brush("oilpaint", texture=str(tmp_path / "big.png"))
+
+
+@pytest.mark.parametrize("bad", [-5.0, 1e300, 1.5])
+def test_reference_values_outside_the_unit_range_are_refused_by_name(tmp_path, bad):
+    ctt = [[0.5, 0.5, 0.5, 0.25, 0.0], [0.5, 0.5, bad, 0.25, 0.0]]
+    path = npz(tmp_path / "t.npz", ctt, [[0.2, 0.4, 0.6]] * 2, [[1.0]] * 2)
+    with pytest.raises(StrokeFileError, match=r"1 of 2 strokes have a value outside \[0, 1\] in x_ctt, got "
+                                              + re.escape(f"{bad:g} (stroke 1, column 2)")):
+        load_strokes(path, brush="tape")

@@ -231,3 +231,44 @@ def test_a_diverging_training_command_is_one_line_and_exit_1(tmp_path):
     assert result.returncode == 1
     assert result.stderr.strip().splitlines()[-1].startswith("error: training diverged at step ")
     assert json.loads((tmp_path / "metrics.json").read_text())["status"] == "failed"
+
+
+def test_a_checkpoint_save_cut_short_leaves_the_previous_one_whole(tmp_path, monkeypatch):
+    import errno
+
+    from nsp.training.run import AtomicCheckpointIO
+
+    writer, path = AtomicCheckpointIO(), tmp_path / "checkpoints" / "last.ckpt"
+    writer.save_checkpoint({"step": 1, "weights": torch.ones(3)}, path)
+
+    def full_disk(obj, f):  # half a file written, then the disk is full (or the process is killed)
+        Path(f).write_bytes(b"PK\x03\x04 half a checkpoint")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(torch, "save", full_disk)
+    with pytest.raises(OSError):
+        writer.save_checkpoint({"step": 2, "weights": torch.zeros(3)}, path)
+    monkeypatch.undo()
+    assert torch.load(path, weights_only=True)["step"] == 1  # the previous checkpoint, whole
+    assert [p.name for p in path.parent.iterdir()] == ["last.ckpt"]  # no partial file left beside it
+
+
+def test_a_full_disk_stops_training_with_one_line_and_the_checkpoints_whole(tmp_path, monkeypatch):
+    import errno
+
+    from nsp.errors import RunFailed
+    from nsp.training.run import AtomicCheckpointIO
+
+    save = AtomicCheckpointIO.save_checkpoint
+
+    def until_step_4(self, checkpoint, path, storage_options=None):
+        if checkpoint["global_step"] > 4:
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        save(self, checkpoint, path)
+
+    monkeypatch.setattr(AtomicCheckpointIO, "save_checkpoint", until_step_4)
+    cfg = compose_train(tmp_path, "renderer=dcgan", "brush=tape", "data.num_workers=0")
+    with pytest.raises(RunFailed, match=r"training stopped at step \d: cannot write .*\.ckpt \(No space left on device\)"):
+        train(cfg)
+    assert torch.load(tmp_path / "checkpoints" / "last.ckpt", weights_only=True)["global_step"] == 4
+    assert json.loads((tmp_path / "metrics.json").read_text())["status"] == "failed"

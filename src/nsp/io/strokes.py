@@ -198,5 +198,13 @@ def _load_npz(path: Path, brush: str, size: int) -> StrokeFile:
             f"strokes={path}: {bad.sum()} of {len(ctt)} strokes hold NaN or infinite values "
             f"(first: stroke {bad.nonzero()[0][0]}); expected finite numbers"
         )
+    for name, values in (("x_ctt", ctt), ("x_color", color), ("x_alpha", alpha)):
+        outside = (values < 0) | (values > 1)
+        if outside.any():
+            row, col = np.argwhere(outside)[0]
+            raise StrokeFileError(
+                f"strokes={path}: {outside.any(1).sum()} of {len(ctt)} strokes have a value outside [0, 1] in "
+                f"{name}, got {values[row, col]:g} (stroke {row}, column {col}); the reference's parameters lie in [0, 1]"
+            )
     painted_with, strokes = spec.from_reference(ctt, color, alpha, size)
     return StrokeFile(painted_with, torch.tensor(strokes, dtype=torch.float32), size, size, "white")

@@ -7,19 +7,20 @@ import logging
 import math
 import time
 import warnings
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Iterator, Sequence
 
 import pytorch_lightning as L
 import torch
 from hydra.utils import instantiate
+from lightning_fabric.plugins import TorchCheckpointIO
 from pytorch_lightning.callbacks import Callback, LearningRateMonitor, ModelCheckpoint
 from pytorch_lightning.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 
 from nsp.errors import RunFailed
-from nsp.io.export import write_json
+from nsp.io.export import atomic_path, write_json
 from nsp.renderers.checkpoint import check_checkpoint
 from nsp.training.data import StrokeData
 from nsp.training.logger import RunLogger
@@ -43,6 +44,17 @@ class SaveOnInterrupt(Callback):
     def on_exception(self, trainer: L.Trainer, pl_module: L.LightningModule, exception: BaseException) -> None:
         if isinstance(exception, (KeyboardInterrupt, SIGTERMException)):
             trainer.save_checkpoint(self.path)
+
+
+class AtomicCheckpointIO(TorchCheckpointIO):
+    """Writes a checkpoint beside its target and renames it into place (``os.replace``), so a crash,
+    a kill or a full disk mid-save leaves the previous file whole. Lightning's own goes through a
+    file in the system's temp dir and ``shutil.move``, a copy where the run dir is another filesystem."""
+
+    def save_checkpoint(self, checkpoint: dict, path, storage_options=None) -> None:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as temporary:
+            torch.save(checkpoint, temporary)
 
 
 class StopOnNonFinite(Callback):
@@ -124,7 +136,8 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
     # torch's SyncBatchNorm is CUDA-only: on CPU (gloo) each rank keeps its own batch statistics.
     sync_batchnorm = cfg.trainer.sync_batchnorm and cfg.trainer.accelerator != "cpu"
     trainer: L.Trainer = instantiate(
-        cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out, sync_batchnorm=sync_batchnorm
+        cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out, sync_batchnorm=sync_batchnorm,
+        plugins=[AtomicCheckpointIO()],
     )
 
     start = time.perf_counter()
@@ -133,6 +146,11 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
     except SystemExit:  # Lightning exits after Ctrl-C or SIGTERM, once last.ckpt is saved
         _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
         raise KeyboardInterrupt from None
+    except OSError as error:  # a full disk, a dir made read-only: the checkpoints saved so far stay whole
+        with suppress(OSError):
+            _finish(trainer, logger, cfg, {}, start, "failed")
+        raise RunFailed(f"training stopped at step {trainer.global_step}: cannot write "
+                        f"{error.filename or cfg.output_dir} ({error.strerror or error})") from None
     except RunFailed as error:
         _finish(trainer, logger, cfg, {}, start, "failed")
         kept = checkpoints / "last.ckpt"
