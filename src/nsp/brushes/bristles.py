@@ -127,9 +127,9 @@ def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key
     head = radius * (1 - torch.sqrt((1 - squared).clamp(min=1e-6))) - s  # the head's rounded corners
     tail = s - (length[:, None] - TAPER * half_h * squared)  # the tail's tapered ones
     width = TRACK * scale  # a track, in pixels
-    if seen(width):
-        jag, _ = value_noise(c / width, 0 * c, key + 0x2F6B2E1D)  # each track starts a little early or late
-        head = head + seen(width) * torch.minimum(RAGGED * width * torch.ones_like(radius), 0.2 * length[:, None]) * (jag - 0.5)
+    if tracks := seen(width):
+        jag, _ = value_noise(c / width, torch.zeros_like(c), key + 0x2F6B2E1D)  # each track starts a little early or late
+        head = head + tracks * (0.2 * length[:, None]).clamp(max=RAGGED * width) * (jag - 0.5)
     outline = torch.maximum(head, tail)
     height = slope = 0
     unseen = 0.0  # the variance of H left undrawn
