@@ -1,5 +1,7 @@
 """``python -m nsp.report``: a fabricated multirun dir gives exactly the expected tables; failed jobs show."""
+import errno
 import json
+import os
 import re
 from pathlib import Path
 
@@ -257,3 +259,63 @@ def test_jobs_of_an_aborted_sweep_that_never_began_are_rows_too(tmp_path):
     report = write_report(tmp_path)[0].read_text()
     assert "4 jobs: 2 completed, 2 not run." in report
     assert "- job 2: the sweep ended before this job began" in report
+
+
+def test_a_rate_left_at_its_default_is_the_rate_the_run_recorded(tmp_path):
+    fake_job(tmp_path, 0, ["renderer=dual", "brush=tape"], train_metrics("dual", "tape", 20.0, lr=1e-4))
+    fake_job(tmp_path, 1, ["renderer=dual", "brush=tape", "model.optimizer.lr=1e-3"], train_metrics("dual", "tape", 21.0, lr=1e-3))
+    fake_job(tmp_path, 2, ["renderer=unet", "brush=tape"], train_metrics("unet", "tape", 19.0, lr=1e-4))
+    report = write_report(tmp_path)[0].read_text()
+    assert "| renderer | lr=0.0001 | lr=1e-3 | chosen |\n" in report
+    assert "| dual | 20.00 | 21.00 | 1e-3 |" in report and "| unet | 19.00 | — | 0.0001 |" in report
+
+
+def _hydra(name: str, text: str):
+    return lambda job: (job / ".hydra" / name).write_text(text)
+
+
+MALFORMED = {  # what a hand-edited, half-copied or hostile run dir may hold -> what the report says of it
+    "no hydra.yaml": (lambda job: (job / ".hydra" / "hydra.yaml").unlink(), None),
+    "hydra.yaml not YAML": (_hydra("hydra.yaml", "{{{:"), None),
+    "hydra.yaml a list": (_hydra("hydra.yaml", "- 1\n"), None),
+    "job.num: abc": (_hydra("hydra.yaml", "hydra:\n  job:\n    num: abc\n"), None),
+    "overrides not YAML": (_hydra("overrides.yaml", "- [unclosed\n: :"), "overrides.yaml is not a list of key=value lines"),
+    "overrides of numbers": (_hydra("overrides.yaml", "- 5\n- null\n"), "overrides.yaml is not a list of key=value lines"),
+    "metrics a list": (lambda job: (job / "metrics.json").write_text("[1, 2]"), "metrics.json is not valid JSON"),
+    "status a list": (lambda job: (job / "metrics.json").write_text('{"val/psnr": 1, "status": ["done"]}'), None),
+    "psnr text": (lambda job: (job / "metrics.json").write_text('{"val/psnr": "abc", "renderer": "dual"}'), None),
+    "psnr Infinity": (lambda job: (job / "metrics.json").write_text('{"val/psnr": Infinity, "renderer": "dual"}'), None),
+    "psnr 400 digits": (lambda job: (job / "metrics.json").write_text('{"val/psnr": 1%s}' % ("0" * 400)), "val/psnr is neither"),
+    "seed a list": (lambda job: (job / "metrics.json").write_text('{"val/psnr": 3, "seed": [1]}'), "seed is neither"),
+    "events a dir": (lambda job: (job / "events.out.tfevents.1.x").mkdir(), None),
+    "events garbage": (lambda job: (job / "events.out.tfevents.1.y").write_bytes(bytes(range(256)) * 3), None),
+}
+
+
+@pytest.mark.parametrize("case", MALFORMED)
+def test_malformed_run_metadata_is_reported_not_a_traceback(case, tmp_path, capsys):
+    """Beside a good job, one whose files were damaged: the report is written, and says what it could not read."""
+    fake_job(tmp_path, 0, ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", 12.0), [(1, 10.0), (2, 12.0)])
+    fake_job(tmp_path, 1, ["renderer=dual", "brush=tape"], train_metrics("dual", "tape", 13.0), [(1, 11.0), (2, 13.0)])
+    damage, said = MALFORMED[case]
+    damage(tmp_path / "1_job")
+    cli([str(tmp_path)])
+    assert capsys.readouterr().out.startswith("reported 2 runs")
+    report = (tmp_path / "report.md").read_text()
+    assert "| dcgan |" in report and "12.00" in report
+    if said:
+        assert said in report
+
+
+def test_a_report_that_cannot_be_written_is_one_line_naming_the_dir(tmp_path, monkeypatch, capsys):
+    fake_job(tmp_path, 0, ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", 12.0))
+
+    def read_only(self, *args, **kwargs):
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(self))
+
+    monkeypatch.setattr(Path, "write_text", read_only)
+    with pytest.raises(SystemExit) as exit_:
+        cli([str(tmp_path)])
+    message = capsys.readouterr().err
+    assert exit_.value.code == 2 and message.count("\n") == 1
+    assert message == f"error: {tmp_path}: cannot write the report into it (Read-only file system); copy the runs to a folder you can write, and report that\n"

@@ -12,6 +12,7 @@ from hydra.errors import HydraException
 from omegaconf import OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+import yaml
 
 from nsp.errors import BadInput
 
@@ -42,8 +43,9 @@ class Job:
     error: str | None = None
 
     def choice(self, key: str):
-        """The value of ``key`` this job ran with: its override, else what its metrics record."""
-        return self.overrides.get(key, self.metrics.get(key))
+        """The value of ``key`` this job ran with: its override, else what its metrics record under the
+        key or its last part (``lr`` for ``model.optimizer.lr``)."""
+        return self.overrides.get(key, self.metrics.get(key, self.metrics.get(key.rsplit(".", 1)[-1])))
 
 
 def is_job(path: Path) -> bool:
@@ -51,30 +53,66 @@ def is_job(path: Path) -> bool:
 
 
 def read_job(path: Path) -> Job:
-    """The job in ``path`` (a dir with ``.hydra/overrides.yaml``)."""
-    lines = OmegaConf.load(path / ".hydra" / "overrides.yaml")
-    # Hydra writes every override as one "key=value" line, sweeps already expanded.
-    overrides = dict(line.lstrip("+").split("=", 1) for line in lines if "=" in line)
-    num = OmegaConf.select(OmegaConf.load(path / ".hydra" / "hydra.yaml"), "hydra.job.num", default=None)
-    job = Job(num=path.name if num is None else int(num), path=path, overrides=overrides, curves=read_curves(path))
+    """The job in ``path`` (a dir with ``.hydra/overrides.yaml``). What cannot be read is left out and
+    said in ``error``: overrides that are not ``key=value`` lines, a ``metrics.json`` that is not a
+    JSON object, metric values that are neither text nor a number a float holds."""
+    overrides = read_overrides(path / ".hydra" / "overrides.yaml")
+    job = Job(num=job_number(path), path=path, overrides=overrides or {}, curves=read_curves(path))
+    if overrides is None:
+        job.error = f"{path.name}/.hydra/overrides.yaml is not a list of key=value lines; its choices are not shown"
     metrics_file = path / "metrics.json"
     if metrics_file.is_file():
         try:
             metrics = json.loads(metrics_file.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError):
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError, ValueError, OSError):
             metrics = None
         if not isinstance(metrics, dict):
             job.error = f"{path.name}/metrics.json is not valid JSON (a job killed while writing it?)"
             return job
-        job.metrics, job.status, job.error = metrics, metrics.get("status", "completed"), metrics.get("error")
+        job.metrics = {key: value for key, value in metrics.items() if readable(value)}
+        status, error = job.metrics.get("status", "completed"), job.metrics.get("error")
+        job.status = status if isinstance(status, str) else FAILED
+        job.error = error if isinstance(error, str) else job.error
+        if len(job.metrics) < len(metrics):
+            unread = ", ".join(sorted(set(metrics) - set(job.metrics)))
+            job.error = job.error or f"{path.name}/metrics.json: {unread} is neither text nor a number; left out"
     return job
+
+
+def readable(value) -> bool:
+    """A metric value the report can show: text, a bool, or a number a float holds."""
+    if isinstance(value, (str, bool, float)):
+        return True
+    return isinstance(value, int) and abs(value) < 2 ** 1023
+
+
+def read_overrides(path: Path) -> dict[str, str] | None:
+    """``key -> value`` of Hydra's ``overrides.yaml`` (one ``key=value`` line per override, sweeps
+    already expanded, ``+``/``++`` dropped); None when it is not such a list."""
+    try:
+        lines = OmegaConf.to_container(OmegaConf.load(path))
+    except (OSError, ValueError, yaml.YAMLError, OmegaConfBaseException):
+        return None
+    if not isinstance(lines, list) or not all(isinstance(line, str) and "=" in line for line in lines):
+        return None
+    return dict(line.lstrip("+").split("=", 1) for line in lines)
+
+
+def job_number(path: Path) -> int | str:
+    """Hydra's job number from ``.hydra/hydra.yaml``; the dir's name for a single run, or where the
+    file is missing or holds no number."""
+    try:
+        num = OmegaConf.select(OmegaConf.load(path / ".hydra" / "hydra.yaml"), "hydra.job.num", default=None)
+    except (OSError, ValueError, yaml.YAMLError, OmegaConfBaseException):
+        return path.name
+    return num if isinstance(num, int) and not isinstance(num, bool) else path.name
 
 
 def read_curves(path: Path) -> dict[str, list[tuple[int, float]]]:
     """Every scalar tag of the TensorBoard event files under ``path``, merged over event dirs."""
     curves: dict[str, dict[int, float]] = {}
     logging.getLogger("tensorboard").setLevel(logging.WARNING)  # its reader's INFO lines are not the report's
-    for events in sorted({f.parent for f in path.rglob("events.out.tfevents.*")}):
+    for events in sorted({f.parent for f in path.rglob("events.out.tfevents.*") if f.is_file()}):
         accumulator = EventAccumulator(str(events), size_guidance={"scalars": 0}).Reload()  # 0: keep all points
         for tag in accumulator.Tags()["scalars"]:
             for event in accumulator.Scalars(tag):

@@ -53,7 +53,7 @@ def plot_tag(jobs: list[Job], tag: str, path: Path) -> None:
     fig, axes = figure(len(columns))
     for ax, panel in zip(axes, columns):
         for name, group in settings(jobs, panel).items():
-            runs = [dict(job.curves[tag]) for job in group if tag in job.curves]
+            runs = [{step: value for step, value in job.curves[tag] if np.isfinite(value)} for job in group if tag in job.curves]
             if not runs:
                 continue
             steps = sorted(set.intersection(*(set(run) for run in runs)))
@@ -84,7 +84,7 @@ def plot_bars(jobs: list[Job], metric: str, path: Path) -> None:
     for ax, panel in zip(axes[0], columns):
         groups = settings(jobs, panel)
         stats = [stat(groups[name], metric) if name in groups else None for name in names]
-        means = np.array([s.mean if s else np.nan for s in stats])
+        means = np.array([s.mean if s and np.isfinite(s.mean) else np.nan for s in stats])  # no bar for an infinite PSNR
         errors = np.array([s.std if s else 0.0 for s in stats])
         ax.barh(range(len(names)), means, xerr=errors, capsize=3, color="tab:blue", alpha=0.8)
         for y, (mean, error) in enumerate(zip(means, errors)):

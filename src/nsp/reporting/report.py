@@ -4,6 +4,7 @@ from __future__ import annotations
 from collections import Counter
 from pathlib import Path
 
+from nsp.errors import BadInput
 from nsp.reporting.collect import Job, collect, common_overrides, latest_sweep, swept_keys
 from nsp.reporting.plots import plot_all
 from nsp.reporting.tables import (
@@ -15,13 +16,18 @@ def write_report(sweep: Path) -> list[Path]:
     """Write ``report.md``, ``report.csv`` and the plots of the runs in ``sweep`` (a multirun's sweep
     dir, a folder of run dirs, or one run's dir) into it.
 
-    Returns the files written. Raises ``ValueError`` when ``sweep`` holds no Hydra job.
+    Returns the files written. Raises :class:`BadInput` when ``sweep`` holds no Hydra job or cannot
+    be written into (read-only, full).
     """
     jobs = collect(sweep)
     header, rows = job_rows(jobs)
-    (sweep / "report.csv").write_text(to_csv(header, rows))
-    plots = plot_all(jobs, sweep)
-    (sweep / "report.md").write_text(markdown(sweep, jobs, plots))
+    try:
+        (sweep / "report.csv").write_text(to_csv(header, rows))
+        plots = plot_all(jobs, sweep)
+        (sweep / "report.md").write_text(markdown(sweep, jobs, plots))
+    except OSError as error:
+        raise BadInput(f"{sweep}: cannot write the report into it ({error.strerror or error}); "
+                       "copy the runs to a folder you can write, and report that") from None
     return [sweep / "report.md", sweep / "report.csv", *plots]
 
 
@@ -36,7 +42,7 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
         lines += ["", "Every job: " + " ".join(f"`{key}={value}`" for key, value in common.items())]
     lines += ["", "## Jobs", "", to_markdown(header, rows)]
     if errors := [job for job in jobs if job.error]:
-        lines += ["Why jobs did not complete:", ""] + [f"- job {job.num}: {job.error}" for job in errors] + [""]
+        lines += ["Why jobs did not complete, or what could not be read:", ""] + [f"- job {job.num}: {job.error}" for job in errors] + [""]
     trained = [job for job in jobs if job.choice("renderer") is not None]  # a folder may mix paintings in
     if trained and is_renderer_sweep(trained):
         jobs = trained

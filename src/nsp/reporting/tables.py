@@ -115,9 +115,17 @@ def label(job: Job, keys: list[str]) -> str:
     return " ".join(f"{key.rsplit('.', 1)[-1]}={job.choice(key)}" for key in keys)
 
 
+def score(job: Job, metric: str) -> float | None:
+    """``metric`` of a completed job as a float; None when it did not complete or has no such number."""
+    value = job.metrics.get(metric)
+    if job.status != "completed" or not isinstance(value, Number) or isinstance(value, bool):
+        return None
+    return float(value)
+
+
 def stat(jobs: list[Job], metric: str) -> Stat | None:
     """``metric`` over the completed jobs among ``jobs``; None when none completed."""
-    values = [float(j.metrics[metric]) for j in jobs if j.status == "completed" and metric in j.metrics]
+    values = [value for value in (score(job, metric) for job in jobs) if value is not None]
     return Stat(values) if values else None
 
 
@@ -142,7 +150,7 @@ def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
         same = [job for job in jobs if tuple(job.choice(k) for k in keys) == setting]
         row: list = list(setting)
         if show_lr:
-            row.append(", ".join(dict.fromkeys(f"{job.metrics['lr']:g}" for job in same if "lr" in job.metrics)) or None)
+            row.append(", ".join(dict.fromkeys(str(number("lr", job.metrics["lr"])) for job in same if "lr" in job.metrics)) or None)
         for brush in brushes:
             cell = [job for job in same if job.choice(PANEL) == brush]
             score = stat(cell, metric)
@@ -169,8 +177,8 @@ def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
     brushes = list(dict.fromkeys(job.choice(PANEL) for job in jobs))
 
     def scores(renderer: str, brush: str) -> dict:
-        return {job.choice(SEED): float(job.metrics[metric]) for job in jobs if job.status == "completed"
-                and metric in job.metrics and (job.choice("renderer"), job.choice(PANEL)) == (renderer, brush)}
+        return {job.choice(SEED): score(job, metric) for job in jobs if score(job, metric) is not None
+                and (job.choice("renderer"), job.choice(PANEL)) == (renderer, brush)}
 
     header, rows = ["dual minus", *map(str, brushes)], []
     for other in (r for r in renderers if r != DUAL):
@@ -189,18 +197,26 @@ def chosen_rates(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
     if headline(jobs) != "val/psnr" or not {"renderer", LR} <= set(swept_keys(jobs)):
         return None
     renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
-    rates = sorted(dict.fromkeys(job.choice(LR) for job in jobs), key=float)
+    rates = sorted(dict.fromkeys(job.choice(LR) for job in jobs), key=rate_order)
     header, rows = ["renderer", *(f"lr={rate}" for rate in rates), "chosen"], []
     for renderer in renderers:
-        means = {}
+        means, ran = {}, set()
         for rate in rates:
             cell = [job for job in jobs if (job.choice("renderer"), job.choice(LR)) == (renderer, rate)]
-            score = stat(cell, "val/psnr")
+            score, ran = stat(cell, "val/psnr"), ran | ({rate} if cell else set())
             if score and len(score.values) == len(cell):  # a rate with a failed job is not chosen
                 means[rate] = score.mean
-        rows.append([renderer, *(f"{means[r]:.2f}" if r in means else "failed" for r in rates),
+        rows.append([renderer, *(f"{means[r]:.2f}" if r in means else "failed" if r in ran else None for r in rates),
                      max(means, key=means.get) if means else None])
     return header, rows
+
+
+def rate_order(rate) -> tuple:
+    """Rates by value; one that is not a number (a typo, none recorded) after them, by its text."""
+    try:
+        return 0, float(rate), ""
+    except (TypeError, ValueError):
+        return 1, 0.0, str(rate)
 
 
 def to_csv(header: list[str], rows: list[list]) -> str:
