@@ -170,10 +170,10 @@ def test_a_checkpoint_that_cannot_be_resumed_is_one_line(tmp_path):
     }
     for path, message in cases.items():
         with pytest.raises(ValueError, match=message) as error:
-            check_checkpoint(path, "dcgan", "tape", 32)
+            check_checkpoint(path, {"name": "dcgan", "size": 32}, "tape")
         assert "\n" not in str(error.value)
     with pytest.raises(ValueError, match="holds renderer=dcgan brush=tape model.size=32; this run is renderer=dual brush=tape"):
-        check_checkpoint(good, "dual", "tape", 32)
+        check_checkpoint(good, {"name": "dual", "size": 32}, "tape")
 
 
 def test_paths_and_colours_are_quoted_for_hydra_where_it_needs_it():

@@ -16,6 +16,7 @@ the entry modules import only Hydra at the top.
 from __future__ import annotations
 
 import difflib
+import errno
 import json
 import logging
 import os
@@ -23,7 +24,7 @@ import signal
 import sys
 import textwrap
 import traceback
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, NoReturn
@@ -55,13 +56,28 @@ CLAIM = ".nsp-run"  # in a dir named by hydra.run.dir: the process id of the run
 STOPPED = ".interrupted"  # in a sweep's dir: Ctrl-C or SIGTERM reached the sweep; no further job starts
 
 
+# What a disk may refuse a write with: full, over quota, read-only, not ours, failing, file too large.
+REFUSED_WRITES = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EIO, errno.EFBIG}
+
+
 def record(out: Path, status: str, error: str) -> None:
-    """Write the job's ``metrics.json`` where the work did not: its status and the one-line reason."""
+    """Write the job's ``metrics.json`` where the work did not: its status and the one-line reason.
+    Where the disk refuses even that, the reason goes to stderr only (the sweep goes on)."""
     from nsp.io.export import write_json
 
-    out.mkdir(parents=True, exist_ok=True)
-    if status == "failed" or not (out / "metrics.json").is_file():
-        write_json(out / "metrics.json", {"status": status, "error": error})
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if status == "failed" or not (out / "metrics.json").is_file():
+            write_json(out / "metrics.json", {"status": status, "error": error})
+    except OSError as refused:
+        print(f"error: {out.name}: could not record its status ({refused.strerror or refused}): {error}", file=sys.stderr)
+
+
+def refused_write(error: OSError, out: Path) -> str:
+    """One line for a write the disk refused: why, where, and which files the run's dir kept."""
+    kept = sorted(p.name for p in out.iterdir() if p.is_file() and not p.name.startswith(".")) if out.is_dir() else []
+    return (f"{error.strerror or error} while writing into {out}; the run stopped, keeping "
+            f"{', '.join(kept) or 'no file'} (each whole: files are written beside their place, then renamed)")
 
 
 def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
@@ -79,17 +95,20 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
         return None
     try:
         return work(cfg)
-    except (BadInput, InstantiationException, RunFailed) as error:  # a value refused, or a run that could not go on
-        message = _one_line(error)
+    except (BadInput, InstantiationException, RunFailed, OSError) as error:  # a value refused, a run that could not go on
+        if isinstance(error, OSError) and error.errno not in REFUSED_WRITES:
+            raise
+        message = refused_write(error, out) if isinstance(error, OSError) else _one_line(error)
         if stop is None:
-            fail(message, FAILED if isinstance(error, RunFailed) else BAD_INPUT)
+            fail(message, BAD_INPUT if isinstance(error, (BadInput, InstantiationException)) else FAILED)
         record(out, "failed", message)
         print(f"error: {out.name}: {message}", file=sys.stderr)
     except Exception as error:
         if stop is None:
             raise
         record(out, "failed", f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error).strip() else ''}")
-        (out / "traceback.txt").write_text(traceback.format_exc())
+        with suppress(OSError):  # a full disk: the record's line on stderr is all there is
+            (out / "traceback.txt").write_text(traceback.format_exc())
         print(f"error: {out.name}: {type(error).__name__} (traceback in {out / 'traceback.txt'})", file=sys.stderr)
     except KeyboardInterrupt:
         if stop is None:
@@ -130,7 +149,7 @@ class Sweeps(Callback):
             print(f"interrupted: each of the {len(jobs)} jobs kept what it had; per job: python -m nsp.report {sweep}",
                   file=sys.stderr)
             sys.exit(INTERRUPTED)
-        failed = [p.name for p in jobs if _status(p / "metrics.json") == "failed"]
+        failed = [p.name for p in jobs if _status(p / "metrics.json") in ("failed", None)]  # None: it could not record
         if failed:
             print(f"{len(failed)} of {len(jobs)} jobs failed ({', '.join(failed)}); the others finished. "
                   f"Why, per job: python -m nsp.report {sweep}", file=sys.stderr)
@@ -138,8 +157,10 @@ class Sweeps(Callback):
 
 
 def _status(path: Path) -> str | None:
+    """A job's status as its ``metrics.json`` says (``completed`` where it names none); None where
+    the job wrote none or it cannot be read."""
     try:
-        return json.loads(path.read_text()).get("status")
+        return json.loads(path.read_text()).get("status", "completed")
     except (OSError, ValueError, AttributeError):
         return None
 
@@ -164,16 +185,28 @@ class RunDirs(Callback):
         path = Path(OmegaConf.select(config, key))
         if config.get("ckpt_path") and path.resolve() in Path(config.ckpt_path).resolve().parents:
             return  # resuming in place
-        if any(o.split("=", 1)[0].lstrip("+~") == key for o in config.hydra.overrides.hydra):
-            if path.is_dir() and any(p.name not in (".hydra", CLAIM) and p.suffix != ".log" for p in path.iterdir()):
-                print(f"error: {key}={path} already holds a run; name a new dir, or remove that one first",
-                      file=sys.stderr)
-                sys.exit(BAD_INPUT)
-            if key == "hydra.run.dir" and not _claim_named(path):
-                print(f"error: {key}={path} is taken by another run that is still going; name a new dir",
-                      file=sys.stderr)
-                sys.exit(BAD_INPUT)
-            return
+        try:
+            if any(o.split("=", 1)[0].lstrip("+~") == key for o in config.hydra.overrides.hydra):
+                RunDirs._named(path, key)
+            else:
+                RunDirs._fresh(config, path, key)
+        except OSError as error:  # a parent that is a file, a read-only or full disk
+            print(f"error: {key}={path}: cannot make a run dir there ({error.strerror or error}); "
+                  "name a dir on a disk you can write", file=sys.stderr)
+            sys.exit(BAD_INPUT)
+
+    @staticmethod
+    def _named(path: Path, key: str) -> None:
+        if path.is_dir() and any(p.name not in (".hydra", CLAIM) and p.suffix != ".log" for p in path.iterdir()):
+            print(f"error: {key}={path} already holds a run; name a new dir, or remove that one first", file=sys.stderr)
+            sys.exit(BAD_INPUT)
+        path.mkdir(parents=True, exist_ok=True)
+        if key == "hydra.run.dir" and not _take(path):
+            print(f"error: {key}={path} is taken by another run that is still going; name a new dir", file=sys.stderr)
+            sys.exit(BAD_INPUT)
+
+    @staticmethod
+    def _fresh(config: DictConfig, path: Path, key: str) -> None:
         fresh, n = path, 1
         while True:  # mkdir claims a name: two runs started in the same second cannot both get it
             try:
@@ -186,10 +219,9 @@ class RunDirs(Callback):
             OmegaConf.update(config, key, str(fresh))
 
 
-def _claim_named(path: Path) -> bool:
+def _take(path: Path) -> bool:
     """Claim a dir the user named for this process: its :data:`CLAIM` file, linked into place only
     if absent (so of two runs started together, one gets it) or left by a process that has ended."""
-    path.mkdir(parents=True, exist_ok=True)
     claim, mine = path / CLAIM, path / f"{CLAIM}.{os.getpid()}"
     mine.write_text(str(os.getpid()))
     try:
@@ -391,6 +423,10 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
         sys.exit(INTERRUPTED)
     except (HydraException, OmegaConfBaseException) as error:  # composing: a value or key the config rejects
         fail(_one_line(error))
+    except OSError as error:  # Hydra's own files (a job's .hydra/, multirun.yaml) on a disk that refuses them
+        if error.errno not in REFUSED_WRITES:
+            raise
+        fail(f"{error.strerror}: {error.filename or 'a run file'}; free space or name another dir (hydra.run.dir, hydra.sweep.dir)", FAILED)
 
 
 def finish() -> NoReturn:

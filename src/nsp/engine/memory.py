@@ -22,6 +22,12 @@ CANVAS_BYTES = 37  # per canvas pixel, no strokes: PNG 38.5, 36.6, 36.1 B/px at 
 TILE_BYTES = 25  # per pixel of the largest chunk's stroke boxes: 19–24 B, 500-stroke PNGs at 1000–2000 px
 FRAME_BYTES = 2.5  # per pixel and GIF frame kept until the file is written: 51 frames added 118 B/px at 1000 px
 TYPICAL_COVER = 25.0  # stroke_cover of those paintings (the painter's default progressive schedule): 13–25
+# Peak RSS per pixel of the painter's own canvases, measured with `python -m nsp.paint` (2026-11-26):
+WORK_BYTES = 80  # per work_size pixel: 0.91, 1.02, 1.23 GB at work_size=256, 1024, 2048 (70 B/px)
+STYLE_BYTES = 5000  # per style.size pixel of the photo in full mode (VGG-19 features, their gradients): 4.4–4.8 kB
+# Training on the CPU (`python -m nsp.train`, 32 px): 128 -> 1024 strokes a batch added 0.28 GB, 300 B per stroke pixel.
+BATCH_BYTES = 300  # per pixel of each stroke of a batch trained on the CPU
+SET_BYTES = 16  # per pixel of each held-out stroke: its foreground and alpha, float32
 
 
 class MemoryLimit(BadInput):
@@ -47,7 +53,8 @@ def stroke_cover(brush: Brush, strokes: Tensor, height: int, width: int) -> floa
     return max((float(a.sum()) for a in area), default=0.0) / (height * width)
 
 
-def check_canvas(height: int, width: int, key: str, cover: float = TYPICAL_COVER, frames: int = 0) -> None:
+def check_canvas(height: int, width: int, key: str, cover: float = TYPICAL_COVER, frames: int = 0,
+                 pixel_bytes: float = CANVAS_BYTES, noun: str = "render") -> None:
     """Raise :class:`MemoryLimit` if a ``height``×``width`` render will not fit in memory.
 
     Args:
@@ -56,17 +63,37 @@ def check_canvas(height: int, width: int, key: str, cover: float = TYPICAL_COVER
         cover: canvases covered by the largest chunk of strokes (:func:`stroke_cover`); the default
             is a typical painting's, for checks made before the strokes exist.
         frames: GIF frames the render holds at once (0 for a still image).
+        pixel_bytes: bytes per canvas pixel besides the strokes' tiles and the frames
+            (:data:`WORK_BYTES`, :data:`STYLE_BYTES` for the painter's own canvases).
+        noun: what the message calls it.
     """
     cover = min(cover, max(1.0, CHUNK_PIXELS / (height * width)))  # chunks hold at most CHUNK_PIXELS, or a stroke
-    need = (CANVAS_BYTES + TILE_BYTES * cover + FRAME_BYTES * frames) * height * width
+    need = (pixel_bytes + TILE_BYTES * cover + FRAME_BYTES * frames) * height * width
+    _check(need, key, max(height, width), 2, f"a {width}×{height} {noun}")
+
+
+def check_training(batch_size: int, held_out: int, size: int, on_cpu: bool) -> None:
+    """Raise :class:`MemoryLimit` naming ``data.batch_size`` if training on ``size``-px strokes, a
+    batch at a time, with ``held_out`` validation and test strokes kept, will not fit in memory
+    (a batch's activations count only where training runs on the CPU)."""
+    batch = batch_size * size * size * (BATCH_BYTES if on_cpu else SET_BYTES)
+    held = held_out * size * size * SET_BYTES
+    if held > available_bytes():
+        raise MemoryLimit(f"data.val_size + data.test_size = {held_out}: keeping that many {size}-px strokes needs about "
+                          f"{held / 1e9:.1f} GB, {available_bytes() / 1e9:.1f} GB is available; keep their sum under "
+                          f"about {_two_digits(held_out * available_bytes() / held)}")
+    _check(batch + held, "data.batch_size", batch_size, 1, f"training on batches of {size}-px strokes", room=held)
+
+
+def _check(need: float, key: str, value: int, power: int, what: str, room: float = 0.0) -> None:
+    """Raise :class:`MemoryLimit` if ``need`` bytes exceed what is available: the message names
+    ``key=value``, ``what`` needs it, and the largest value that fits, the need growing as
+    ``value ** power`` over a fixed ``room``."""
     free = available_bytes()
     if need > free:
-        long_side = max(height, width)
-        fits = _two_digits(long_side * math.sqrt(free / need))
-        raise MemoryLimit(
-            f"{key}={long_side}: a {width}×{height} render needs about {need / 1e9:.1f} GB, "
-            f"{free / 1e9:.1f} GB is available; the largest that fits is about {key}={fits}"
-        )
+        fits = _two_digits(value * max((free - room) / (need - room), 0) ** (1 / power))
+        raise MemoryLimit(f"{key}={value}: {what} needs about {need / 1e9:.1f} GB, {free / 1e9:.1f} GB is "
+                          f"available; the largest that fits is about {key}={fits}")
 
 
 def _two_digits(n: float) -> int:

@@ -2,6 +2,9 @@
 from __future__ import annotations
 
 import json
+import math
+import zipfile
+import zlib
 from dataclasses import dataclass
 from itertools import chain
 from operator import itemgetter
@@ -19,6 +22,9 @@ from nsp.errors import BadInput
 from nsp.io.export import write_json
 
 FORMAT, VERSION = "nsp-strokes", 1
+NPZ_ARRAYS = ("x_ctt", "x_color", "x_alpha")  # the reference's shape-and-position, colour and alpha arrays
+NPZ_MAX_VALUES = 50_000_000  # per array: a million strokes of the widest brush, 400 MB as float64
+NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
 
 
 class StrokeFileError(BadInput):
@@ -96,8 +102,9 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
     except orjson.JSONDecodeError:  # what only json reads (NaN, Infinity: refused below, by name), or its message
         try:
             data = json.loads(text)
-        except (json.JSONDecodeError, UnicodeDecodeError) as err:
-            raise StrokeFileError(f"strokes={path} is not valid JSON ({err})") from None
+        except (ValueError, RecursionError) as err:  # also nesting too deep, an integer of thousands of digits
+            reason = "nested too deep" if isinstance(err, RecursionError) else str(err)[:120]
+            raise StrokeFileError(f"strokes={path} is not valid JSON ({reason})") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise StrokeFileError(
             f"strokes={path} is not an nsp stroke file (expected a JSON object with format '{FORMAT}')"
@@ -175,15 +182,40 @@ def _check_range(path: Path, strokes: Tensor, params: tuple[str, ...]) -> None:
         )
 
 
+def _read_npz(path: Path) -> list[np.ndarray]:
+    """The reference's three arrays (float64), each (N, k) or (1, N, k), read only after their headers
+    say they hold plain numbers and no more values than their bytes in the file."""
+    arrays = []
+    try:
+        with zipfile.ZipFile(path) as archive:
+            for key in NPZ_ARRAYS:
+                if f"{key}.npy" not in archive.namelist():
+                    raise StrokeFileError(f"strokes={path} lacks array {key!r}; expected {', '.join(NPZ_ARRAYS)}")
+                info = archive.getinfo(f"{key}.npy")
+                with archive.open(info) as member:
+                    version = np.lib.format.read_magic(member)
+                    if version not in NPY_HEADERS:
+                        raise ValueError(f"npy format version {version} in {key}")
+                    shape, _, dtype = NPY_HEADERS[version](member)
+                    count = math.prod(shape)
+                    if dtype.kind not in "fiu" or dtype.fields is not None or not 2 <= len(shape) <= 3 or shape[-1] < 1:
+                        raise StrokeFileError(f"strokes={path}: {key} is {dtype} {list(shape)}; expected numbers, "
+                                              "shaped [1, N, k] or [N, k]")
+                    if count > NPZ_MAX_VALUES or count * dtype.itemsize > info.file_size:
+                        raise StrokeFileError(f"strokes={path}: {key} claims {count} values, more than its bytes hold "
+                                              f"or {NPZ_MAX_VALUES} (a damaged file?)")
+                with archive.open(info) as member:  # from its start: read_array reads the header itself
+                    arrays.append(np.lib.format.read_array(member, allow_pickle=False))
+    except StrokeFileError:
+        raise
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as err:
+        raise StrokeFileError(f"strokes={path} is not a readable .npz ({str(err).strip() or type(err).__name__})") from None
+    return [np.asarray(a, dtype=np.float64) for a in arrays]
+
+
 def _load_npz(path: Path, brush: str, size: int) -> StrokeFile:
     spec = get_brush(brush)
-    try:
-        with np.load(path) as data:
-            arrays = [np.asarray(data[k], dtype=np.float64) for k in ("x_ctt", "x_color", "x_alpha")]
-    except KeyError as err:
-        raise StrokeFileError(f"strokes={path} lacks array {err}; expected x_ctt, x_color, x_alpha") from None
-    except (OSError, ValueError) as err:
-        raise StrokeFileError(f"strokes={path} is not a readable .npz ({err})") from None
+    arrays = _read_npz(path)
     ctt, color, alpha = (a.reshape(-1, a.shape[-1]) if a.ndim == 3 else a for a in arrays)
     n_ctt, n_color = spec.reference
     if ctt.shape[1:] != (n_ctt,) or color.shape[1:] != (n_color,) or len(ctt) != len(color) or alpha.size != len(ctt):

@@ -21,7 +21,7 @@ from nsp.brushes import get_brush
 from nsp.cli import counted, shielded
 from nsp.engine import parse_color
 from nsp.engine.device import resolve_device
-from nsp.engine.memory import check_canvas
+from nsp.engine.memory import STYLE_BYTES, WORK_BYTES, check_canvas
 from nsp.errors import BadInput
 from nsp.io.export import frame_ends, write_json, write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
@@ -83,6 +83,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None
         brush = get_brush(cfg.brush.name, cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto)
         photo = load_image(cfg.image, max_side=max(cfg.work_size, cfg.render_size, SCORE_SIZE,
                                                      cfg.style.size if cfg.style.image else 0))
+        check_canvas(*long_side(*photo.shape[-2:], cfg.work_size), "work_size", cover=0, pixel_bytes=WORK_BYTES,
+                     noun="working canvas")
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
         check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size",
                      frames=len(frame_ends(cfg.strokes, cfg.animation_frames)))
@@ -106,6 +108,8 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None
                     need = math.ceil(MIN_SIDE * long / max(short - 1, 0.5))
                     raise BadInput(f"style.size={cfg.style.size}: {key} is {shape[0]}×{shape[1]} px at that size, under the "
                                    f"{MIN_SIDE} px a side style transfer needs; use style.size={need} or more")
+            check_canvas(*long_side(*photo.shape[-2:], cfg.style.size), "style.size", cover=0,
+                         pixel_bytes=STYLE_BYTES if cfg.style.mode == "full" else WORK_BYTES, noun="styled canvas")
             image = resize(image, cfg.style.size).to(device)
             if cfg.style.mode == "full":
                 style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed).to(device)

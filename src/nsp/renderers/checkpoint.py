@@ -25,23 +25,40 @@ def read_checkpoint(path, map_location="cpu") -> dict:
     return ckpt
 
 
-def check_checkpoint(path, renderer: str, brush: str, size: int) -> None:
-    """Raise ``ValueError`` unless ``path`` is a checkpoint of this renderer, brush and size, to resume."""
+def check_checkpoint(path, renderer: dict, brush: str) -> None:
+    """Raise :class:`BadInput` unless ``path`` is a whole checkpoint (its weights fit the renderer it
+    names) of the ``renderer`` config (``name``, ``size``, ``channel_mult``, …) and ``brush``, to resume."""
     saved = read_checkpoint(path)["hyper_parameters"]
     theirs = (saved["renderer"].get("name"), saved["brush"], saved["renderer"]["size"])
-    if theirs != (renderer, brush, size):
+    if theirs != (renderer["name"], brush, renderer["size"]):
         raise BadInput(f"ckpt_path={path} holds renderer={theirs[0]} brush={theirs[1]} model.size={theirs[2]}; "
-                         f"this run is renderer={renderer} brush={brush} model.size={size}: resume with those")
+                       f"this run is renderer={renderer['name']} brush={brush} model.size={renderer['size']}: resume with those")
+    if differ := [key for key in renderer if key != "_target_" and saved["renderer"].get(key) != renderer[key]]:
+        given = " ".join(f"{OPTIONS.get(key, 'renderer.' + key)}={saved['renderer'].get(key)}" for key in differ)
+        raise BadInput(f"ckpt_path={path} was trained with {given}; this run differs: resume with those")
+    load_renderer(path)
+
+
+OPTIONS = {"size": "model.size", "channel_mult": "model.channel_mult"}  # renderer keys a training run sets as model.*
 
 
 def load_renderer(path, map_location="cpu") -> tuple[nn.Module, str, int]:
     """The renderer saved in a checkpoint of ``python -m nsp.train``, in eval mode, its brush and size.
 
-    Raises ``ValueError`` for a file that is not such a checkpoint.
+    Raises :class:`BadInput` for a file that is not such a checkpoint, or whose weights do not fit
+    the renderer its settings describe (an edited or foreign file).
     """
     ckpt = read_checkpoint(path, map_location)
     config, brush = ckpt["hyper_parameters"]["renderer"], ckpt["hyper_parameters"]["brush"]
-    renderer = build(config, brush)
     prefix = "renderer."
-    renderer.load_state_dict({k[len(prefix):]: v for k, v in ckpt["state_dict"].items() if k.startswith(prefix)})
+    try:
+        renderer = build(config, brush)
+        renderer.load_state_dict({k[len(prefix):]: v for k, v in ckpt["state_dict"].items() if k.startswith(prefix)})
+    except BadInput as error:  # a brush or family it names that nsp does not have
+        raise BadInput(f"{path}: {error}") from None
+    except (TypeError, KeyError, ValueError, RuntimeError, AttributeError) as error:
+        lines = [line.strip() for line in str(error).splitlines() if line.strip() and "Error(s) in loading" not in line]
+        reason = lines[0] if lines else type(error).__name__
+        raise BadInput(f"{path}: its weights do not fit the renderer its settings describe "
+                       f"({reason if len(reason) <= 100 else reason[:99] + '…'}); use a checkpoint `python -m nsp.train` wrote") from None
     return renderer.eval(), brush, int(config["size"])

@@ -100,7 +100,7 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
     """
     check(cfg)
     if cfg.ckpt_path is not None:
-        check_checkpoint(cfg.ckpt_path, str(cfg.renderer.name), cfg.brush.name, cfg.model.size)
+        check_checkpoint(cfg.ckpt_path, OmegaConf.to_container(cfg.renderer, resolve=True, enum_to_str=True), cfg.brush.name)
     with quiet_lightning():
         return _fit(cfg, callbacks)
 

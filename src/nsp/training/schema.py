@@ -14,6 +14,7 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
 from nsp.config import CONF, BrushConfig  # also registers the ``brush`` group
+from nsp.engine.memory import check_training
 from nsp.errors import BadInput
 
 
@@ -153,3 +154,5 @@ def check(cfg: Any) -> None:
         raise BadInput(f"threads={cfg.threads}: expected a positive number of threads, or null for torch's default")
     if cfg.trainer.max_steps < -1 or cfg.trainer.max_steps == 0:
         raise BadInput(f"trainer.max_steps={cfg.trainer.max_steps}: expected a positive number of steps, or -1 (no limit)")
+    on_cpu = accelerator == "cpu" or (accelerator == "auto" and not torch.cuda.is_available())
+    check_training(data.batch_size, data.val_size + data.test_size, model.size, on_cpu)
