@@ -208,8 +208,10 @@ def _read_npz(path: Path) -> list[np.ndarray]:
                     arrays.append(np.lib.format.read_array(member, allow_pickle=False))
     except StrokeFileError:
         raise
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as err:
-        raise StrokeFileError(f"strokes={path} is not a readable .npz ({str(err).strip() or type(err).__name__})") from None
+    # NotImplementedError, RuntimeError: zip methods, versions and encryption zipfile cannot read
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error, NotImplementedError, RuntimeError) as err:
+        reason = str(err).strip().splitlines()[0][:100] if str(err).strip() else type(err).__name__
+        raise StrokeFileError(f"strokes={path} is not a readable .npz ({reason})") from None
     return [np.asarray(a, dtype=np.float64) for a in arrays]
 
 
