@@ -10,7 +10,12 @@ from __future__ import annotations
 
 import copy
 import errno
+import json
 import os
+import signal
+import subprocess
+import sys
+import time
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -190,3 +195,82 @@ def test_stroke_files_past_reason_are_one_line(text, words, tmp_path):
     with pytest.raises(StrokeFileError, match=words) as error:
         load_strokes(path)
     assert "\n" not in str(error.value) and len(str(error.value)) < 300
+
+
+# kill -9 ---------------------------------------------------------------------------------------------
+
+def _ended() -> int:
+    """The id of a process that has ended."""
+    process = subprocess.Popen(["true"])
+    process.wait()
+    return process.pid
+
+
+def test_what_a_killed_writer_left_is_removed_by_the_next_and_a_running_ones_kept(tmp_path):
+    from nsp.io.atomic import remove_leftovers
+    from nsp.io.export import write_json
+
+    gone, alive = _ended(), os.getpid()
+    for pid in (gone, alive):
+        (tmp_path / f".metrics.{pid}-0a1b2c3d.tmp.json").write_text('{"cut sh')
+    (tmp_path / f".compiling-{gone}-x1").mkdir()
+    (tmp_path / f".compiling-{gone}-x1" / "kernel.so").write_bytes(b"\0")
+    (tmp_path / f".compiling-{alive}-x2").mkdir()
+    write_json(tmp_path / "metrics.json", {"status": "completed"})
+    remove_leftovers(tmp_path, ".compiling-")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f".compiling-{alive}-x2", f".metrics.{alive}-0a1b2c3d.tmp.json",
+                                                          "metrics.json"]
+
+
+def check_whole(run_dir: Path) -> set[str]:
+    """The painting's files in ``run_dir``, each checked whole by reading it; returns their names."""
+    from PIL import Image
+
+    present = {p.name for p in run_dir.iterdir() if p.name in ("strokes.json", "final.png", "painting.svg", "animation.gif", "metrics.json")}
+    if "strokes.json" in present:
+        load_strokes(run_dir / "strokes.json")
+    for name in ("final.png", "animation.gif"):
+        if name in present:
+            with Image.open(run_dir / name) as image:
+                image.load()
+    if "painting.svg" in present:
+        assert (run_dir / "painting.svg").read_text().rstrip().endswith("</svg>")
+    if "metrics.json" in present:
+        json.loads((run_dir / "metrics.json").read_text())
+    return present
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.15, 0.4])
+def test_a_painting_killed_while_it_writes_leaves_each_file_whole_or_absent(delay, tmp_path):
+    run = subprocess.Popen([sys.executable, "-m", "nsp.paint", "strokes=300", "work_size=64", "render_size=640",
+                            "animation_size=320", "progress=false", f"hydra.run.dir={tmp_path}"],
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    for line in run.stdout:
+        if line.startswith("writing final.png"):
+            break
+    time.sleep(delay)
+    run.kill()
+    run.wait()
+    check_whole(tmp_path)
+    rerun = subprocess.run([sys.executable, "-m", "nsp.render", f"strokes={tmp_path / 'strokes.json'}", f"out={tmp_path / 'final.png'}",
+                            "size=64"], capture_output=True, text=True) if (tmp_path / "strokes.json").exists() else None
+    assert rerun is None or rerun.returncode == 0, rerun.stderr
+    assert not [p.name for p in tmp_path.glob(".*.tmp.*")]  # the render removed what the killed painting left
+
+
+def test_sigterm_during_the_final_test_pass_stops_at_once_keeping_the_final_step(tmp_path, capsys, monkeypatch):
+    import pytorch_lightning as L
+
+    test = L.Trainer.test
+
+    def signalled(self, *args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)  # as `timeout` or Slurm would, while the test strokes are scored
+        return test(self, *args, **kwargs)
+
+    monkeypatch.setattr(L.Trainer, "test", signalled)
+    code, err = run_cli("nsp.train", [*TRAIN_BASE, f"hydra.run.dir={tmp_path}"], capsys, monkeypatch)
+    assert code == 130 and last_line(err) == (f"interrupted: resume with ckpt_path={tmp_path / 'checkpoints' / 'last.ckpt'} "
+                                              f"hydra.run.dir={tmp_path}")
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["status"] == "interrupted" and metrics["steps"] == 1 and "test/psnr" not in metrics
+    assert torch.load(tmp_path / "checkpoints" / "last.ckpt", weights_only=True)["global_step"] == 1

@@ -20,7 +20,8 @@ from nsp.io.strokes import StrokeFile, StrokeFileError, load_strokes, save_strok
 JSON_CASES = 240  # per run of the suite: a few hundred files, seconds
 NPZ_CASES = 120
 ODD_VALUES = [None, True, False, 0, -1, 1, 0.5, -1e-30, 1e308, 2**64, -(2**70), 10**30, "", "x", "0.5", "NaN", [], {},
-              [0.5] * 3, {"x": 0.5}, "data:image/png;base64,AAAA", "#12345", "black", "/etc/passwd", "../secret.png"]
+              [0.5] * 3, {"x": 0.5}, "data:image/png;base64,AAAA", "#12345", "black", "/etc/passwd", "../secret.png",
+              "two\nlines", "y" * 1000]
 
 
 def read_or_refuse(path: Path, brush: str | None = None) -> str:

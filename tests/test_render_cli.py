@@ -14,7 +14,7 @@ from omegaconf import OmegaConf
 
 from nsp.brushes import BRUSHES
 from nsp.engine import memory
-from nsp.io.export import atomic_path
+from nsp.io.atomic import atomic_path
 from nsp.io.strokes import StrokeFile, load_strokes, save_strokes
 from nsp.render import RenderConfig, render
 

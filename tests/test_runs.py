@@ -184,6 +184,14 @@ def test_paths_and_colours_are_quoted_for_hydra_where_it_needs_it():
     assert quote_text(["image=plain.png"], ["image"]) == ["image=plain.png"]
 
 
+@pytest.mark.parametrize("path", [r"C:\photos\a b.png", "/tmp/ends in\\", r"/tmp/x\'y (1).png", r"a\\b c"])
+def test_a_quoted_path_reads_back_exactly_with_its_backslashes(path):
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    (quoted,) = quote_text([f"image={path}"], ["image"])
+    assert OverridesParser.create().parse_override(quoted).value() == path
+
+
 def test_a_painting_reads_an_unquoted_colour_and_an_awkward_path(tmp_path):
     photo = tmp_path / "été (1) [x]=~.png"
     Image.fromarray(np.full((20, 30, 3), 200, np.uint8)).save(photo)

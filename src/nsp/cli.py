@@ -20,6 +20,7 @@ import errno
 import json
 import logging
 import os
+import re
 import signal
 import sys
 import textwrap
@@ -197,7 +198,7 @@ class RunDirs(Callback):
 
     @staticmethod
     def _named(path: Path, key: str) -> None:
-        if path.is_dir() and any(p.name not in (".hydra", CLAIM) and p.suffix != ".log" for p in path.iterdir()):
+        if path.is_dir() and any(not p.name.startswith(".") and p.suffix != ".log" for p in path.iterdir()):  # .hydra, claims
             print(f"error: {key}={path} already holds a run; name a new dir, or remove that one first", file=sys.stderr)
             sys.exit(BAD_INPUT)
         path.mkdir(parents=True, exist_ok=True)
@@ -222,6 +223,8 @@ class RunDirs(Callback):
 def _take(path: Path) -> bool:
     """Claim a dir the user named for this process: its :data:`CLAIM` file, linked into place only
     if absent (so of two runs started together, one gets it) or left by a process that has ended."""
+    from nsp.io.atomic import running
+
     claim, mine = path / CLAIM, path / f"{CLAIM}.{os.getpid()}"
     mine.write_text(str(os.getpid()))
     try:
@@ -231,12 +234,11 @@ def _take(path: Path) -> bool:
                 return True
             except FileExistsError:
                 try:
-                    os.kill(int(claim.read_text()), 0)  # signal 0: whether that process still runs
-                    return False
-                except PermissionError:  # another user's process: it runs
-                    return False
-                except (ProcessLookupError, ValueError, OSError):  # it ended (or died) before its run began
-                    claim.unlink(missing_ok=True)
+                    if running(int(claim.read_text())):
+                        return False
+                except (ValueError, OSError):  # it ended (or died) before its run began
+                    pass
+                claim.unlink(missing_ok=True)
         return False
     finally:
         mine.unlink(missing_ok=True)
@@ -266,11 +268,17 @@ def quote_text(argv: list[str], keys: Iterable[str]) -> list[str]:
     quoted = []
     for arg in argv:
         key, sep, value = arg.partition("=")
-        if sep and value and key.lstrip("+") in keys and _unreadable(arg):
+        if sep and value and key.lstrip("+") in keys and ("\\" in value or _unreadable(arg)):  # bare, \\ is one \
             pieces = value.split(",") if sweep else [value]
-            arg = key + "=" + ",".join("'" + piece.replace("\\", "\\\\").replace("'", "\\'") + "'" for piece in pieces)
+            arg = key + "=" + ",".join(map(_quoted, pieces))
         quoted.append(arg)
     return quoted
+
+
+def _quoted(text: str) -> str:
+    """``text`` in Hydra's single quotes: a quote escaped, and the backslashes just before a quote
+    or the closing one doubled (Hydra reads every other backslash as itself)."""
+    return "'" + re.sub(r"(\\*)('|$)", lambda m: m.group(1) * 2 + ("\\'" if m.group(2) else ""), text) + "'"
 
 
 def _unreadable(override: str) -> str | None:

@@ -72,9 +72,10 @@ def main(cfg: DictConfig) -> float | None:
         sys.exit(INTERRUPTED)
     if metrics is None:  # a failed job of a sweep, recorded in its dir
         return None
+    saved = ", ".join(p.name for name in ("best.ckpt", "last.ckpt") if (p := Path(cfg.output_dir) / "checkpoints" / name).is_file())
     log.info(f"trained {metrics['renderer']} on {metrics['brush']}: {metrics['steps']} steps in {metrics['seconds']:.0f} s, "
              f"test PSNR {metrics['test/psnr']:.2f} dB (validation {metrics['val/psnr']:.2f}): {cfg.output_dir} "
-             f"(metrics.json, checkpoints/best.ckpt, last.ckpt)")
+             f"(metrics.json, checkpoints/{saved})")
     return metrics["val/psnr"]
 
 

@@ -22,8 +22,10 @@ from nsp import brushes
 from nsp.brushes.base import Brush
 from nsp.engine import kernels
 from nsp.engine.kernels import near_tiles, shade_tiles
+from nsp.io.atomic import remove_leftovers
 
 log = logging.getLogger(__name__)
+COMPILING = ".compiling-"  # a compile's working dir in the cache, named with its process id
 CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" / "kernels"
 
 # Eager rendering, nanoseconds per pixel of the strokes' bounding boxes (a stroke's culled tiles are
@@ -81,6 +83,8 @@ def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple
     """Export and compile ``stage`` into its :func:`package`, written atomically (a concurrent run
     never reads half a file); returns its path. ``paired``: its tensors of one row a pair (x, t, …),
     which stand for their dtypes and trailing shapes only; ``fixed``: those after them, as given."""
+    # On the CPU, torch's C++ builder finding a CUDA toolkit without a GPU is no news to a painter.
+    logging.getLogger("torch.utils.cpp_extension").setLevel(logging.ERROR)
     from torch._inductor import aoti_compile_and_package  # imported only to compile: ~1.5 s
 
     path = package(stage, brush, consts, device)
@@ -92,7 +96,8 @@ def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple
         program = torch.export.export(_Stage(stage, brush, consts), (*paired, *fixed),  # forward's *tensors
                                       dynamic_shapes=(tuple({0: pairs} for _ in paired) + (None,) * len(fixed),))
         path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        remove_leftovers(path.parent, COMPILING)  # of compiles killed part-way
+        with tempfile.TemporaryDirectory(dir=path.parent, prefix=f"{COMPILING}{os.getpid()}-") as tmp:
             aoti_compile_and_package(program, package_path=str(Path(tmp) / path.name))
             os.replace(Path(tmp) / path.name, path)
     return path

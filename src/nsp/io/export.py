@@ -4,9 +4,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import secrets
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +16,7 @@ from nsp.brushes.svg import hex_color
 from nsp.engine.canvas import TiledCanvas, paint_canvas, parse_color
 from nsp.engine.fused import pays
 from nsp.errors import BadInput
+from nsp.io.atomic import atomic_path
 
 EXTENSIONS = (".png", ".svg", ".gif")
 GIF_FRAMES = 100  # the most frames of an animation after its empty canvas (nsp.io.export.frame_ends)
@@ -27,19 +25,6 @@ GIF_FRAMES = 100  # the most frames of an animation after its empty canvas (nsp.
 def to_uint8(image: Tensor) -> np.ndarray:
     """(3, H, W) in [0, 1] -> (H, W, 3) uint8."""
     return image.detach().clamp(0, 1).mul(255).add_(0.5).to(torch.uint8).permute(1, 2, 0).contiguous().cpu().numpy()
-
-
-@contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
-    """A temporary path beside ``path`` to write to; it becomes ``path`` only once the write has
-    finished, so an interrupted write leaves the old file or none, never a truncated one."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.stem}.{secrets.token_hex(4)}.tmp{path.suffix}")  # suffix: PIL's format
-    try:
-        yield temporary
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
 
 
 def write_json(path: str | Path, data: dict, indent: int = 2) -> None:

@@ -19,8 +19,10 @@ from pytorch_lightning.callbacks import Callback, LearningRateMonitor, ModelChec
 from pytorch_lightning.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 
+from nsp.cli import shielded
 from nsp.errors import RunFailed
-from nsp.io.export import atomic_path, write_json
+from nsp.io.atomic import atomic_path
+from nsp.io.export import write_json
 from nsp.renderers.checkpoint import check_checkpoint
 from nsp.training.data import StrokeData
 from nsp.training.logger import RunLogger
@@ -155,14 +157,19 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
         _finish(trainer, logger, cfg, {}, start, "failed")
         kept = checkpoints / "last.ckpt"
         raise RunFailed(f"{error}; {f'the last finite checkpoint: {kept}' if kept.exists() else 'no checkpoint was saved'}") from None
-    trainer.save_checkpoint(checkpoints / "last.ckpt")  # the final step's, also where max_steps ends mid-epoch
-    # The final model's validation scores: fit's last pass, unless that was not of the final model (a run
-    # resumed at its last step trains none; trainer.check_val_every_n_epoch may skip the last epoch).
-    if last_validation.step == trainer.global_step:
-        scores = dict(trainer.callback_metrics)
-    else:
-        scores = trainer.validate(model, datamodule=data, verbose=False)[0]
-    scores |= trainer.test(model, datamodule=data, verbose=False)[0]
+    try:
+        trainer.save_checkpoint(checkpoints / "last.ckpt")  # the final step's, also where max_steps ends mid-epoch
+        # The final model's validation scores: fit's last pass, unless that was not of the final model (a run
+        # resumed at its last step trains none; trainer.check_val_every_n_epoch may skip the last epoch).
+        if last_validation.step == trainer.global_step:
+            scores = dict(trainer.callback_metrics)
+        else:
+            scores = trainer.validate(model, datamodule=data, verbose=False)[0]
+        scores |= trainer.test(model, datamodule=data, verbose=False)[0]
+    except (SystemExit, KeyboardInterrupt):  # Ctrl-C or SIGTERM while scoring: last.ckpt holds the final step
+        with shielded():
+            _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
+        raise KeyboardInterrupt from None
     return _finish(trainer, logger, cfg, scores, start, "completed")
 
 

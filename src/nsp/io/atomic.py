@@ -1,0 +1,54 @@
+"""Files written whole: each is written beside its place and renamed into it, and what a writer that
+was killed (``kill -9``, a power cut) left beside it is removed by the next writer of that place."""
+from __future__ import annotations
+
+import glob
+import os
+import secrets
+import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` to write to; it becomes ``path`` only once the write has
+    finished, so an interrupted write leaves the old file or none, never a truncated one. The
+    temporary names its process, so one left by a process that has ended is removed here."""
+    path = Path(path)
+    prefix = f".{path.stem}."
+    remove_leftovers(path.parent, prefix)
+    temporary = path.with_name(f"{prefix}{os.getpid()}-{secrets.token_hex(4)}.tmp{path.suffix}")  # suffix: PIL's format
+    try:
+        yield temporary
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+
+
+def remove_leftovers(folder: Path, prefix: str) -> None:
+    """Remove the entries ``{prefix}{pid}-…`` of ``folder`` whose process ``pid`` has ended."""
+    if not folder.is_dir():
+        return
+    for entry in folder.glob(f"{glob.escape(prefix)}*-*"):
+        pid = entry.name[len(prefix):].split("-", 1)[0]
+        if pid.isdigit() and not running(int(pid)):
+            if entry.is_dir():
+                shutil.rmtree(entry, ignore_errors=True)
+            else:
+                entry.unlink(missing_ok=True)
+
+
+def running(pid: int) -> bool:
+    """Whether process ``pid`` still runs (on this machine)."""
+    try:
+        os.kill(pid, 0)  # signal 0: asks, sends nothing
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    except (OverflowError, OSError):
+        return False
+    return True
+
