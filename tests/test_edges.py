@@ -119,6 +119,31 @@ def test_a_sweep_on_a_full_disk_ends_with_one_line_even_when_no_job_can_record(t
     assert last_line(err).startswith("2 of 2 jobs failed (0_oilpaint, 1_oilpaint)")
 
 
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 3-MB filesystem, 2.4 MB of it already taken, where this machine lets the tests mount one."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(disk)], capture_output=True).returncode:
+        pytest.skip("this machine does not let the tests mount a tmpfs; the mocked full disks above stand in")
+    (disk / "taken").write_bytes(bytes(2400 * 1024))
+    yield disk
+    subprocess.run(["umount", "--lazy", str(disk)], check=True)  # lazy: this process's log handlers still hold files
+
+
+@pytest.mark.parametrize("module", ["nsp.paint", "nsp.train"])
+def test_a_real_full_disk_is_one_line_and_what_was_written_is_whole(module, small_disk, capsys, monkeypatch):
+    argv = [*PAINT_BASE, "render_size=1024"] if module == "nsp.paint" else [*TRAIN_BASE, "trainer.max_steps=4"]
+    if module == "nsp.train":
+        (small_disk / "more").write_bytes(bytes(300 * 1024))  # room for one 200-kB checkpoint, not two
+    code, err = run_cli(module, [*argv, f"hydra.run.dir={small_disk / 'run'}"], capsys, monkeypatch)
+    assert code == FAILED and "No space left on device" in last_line(err) and last_line(err).startswith("error: ")
+    if module == "nsp.paint":
+        check_whole(small_disk / "run")
+    for checkpoint in (small_disk / "run").rglob("*.ckpt"):
+        torch.load(checkpoint, weights_only=True)
+
+
 # Memory ---------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize(("module", "argv", "words"), [

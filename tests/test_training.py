@@ -241,11 +241,13 @@ def test_a_checkpoint_save_cut_short_leaves_the_previous_one_whole(tmp_path, mon
     writer, path = AtomicCheckpointIO(), tmp_path / "checkpoints" / "last.ckpt"
     writer.save_checkpoint({"step": 1, "weights": torch.ones(3)}, path)
 
-    def full_disk(obj, f):  # half a file written, then the disk is full (or the process is killed)
-        Path(f).write_bytes(b"PK\x03\x04 half a checkpoint")
+    write_bytes = Path.write_bytes
+
+    def full_disk(self, data):  # half a file written, then the disk is full (or the process is killed)
+        write_bytes(self, bytes(data)[: len(data) // 2])
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(torch, "save", full_disk)
+    monkeypatch.setattr(Path, "write_bytes", full_disk)
     with pytest.raises(OSError):
         writer.save_checkpoint({"step": 2, "weights": torch.zeros(3)}, path)
     monkeypatch.undo()

@@ -3,6 +3,7 @@ describes (``output_dir`` set; no Hydra needed) and writes checkpoints, TensorBo
 ``metrics.json``."""
 from __future__ import annotations
 
+import io
 import logging
 import math
 import time
@@ -55,8 +56,10 @@ class AtomicCheckpointIO(TorchCheckpointIO):
 
     def save_checkpoint(self, checkpoint: dict, path, storage_options=None) -> None:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
+        data = io.BytesIO()  # torch's own writer reports a full disk as a RuntimeError with no errno
+        torch.save(checkpoint, data)
         with atomic_path(path) as temporary:
-            torch.save(checkpoint, temporary)
+            temporary.write_bytes(data.getbuffer())
 
 
 class StopOnNonFinite(Callback):
