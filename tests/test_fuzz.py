@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import random
 import zipfile
 from pathlib import Path
@@ -17,8 +18,10 @@ from nsp.brushes import BRUSHES
 from nsp.engine import paint_canvas
 from nsp.io.strokes import StrokeFile, StrokeFileError, load_strokes, save_strokes
 
-JSON_CASES = 240  # per run of the suite: a few hundred files, seconds
-NPZ_CASES = 120
+# Per run of the suite a few hundred files (seconds); a longer campaign: NSP_FUZZ_SCALE=50 python -m pytest tests/test_fuzz.py
+SCALE = int(os.environ.get("NSP_FUZZ_SCALE", 1))
+JSON_CASES = 240 * SCALE
+NPZ_CASES = 120 * SCALE
 ODD_VALUES = [None, True, False, 0, -1, 1, 0.5, -1e-30, 1e308, 2**64, -(2**70), 10**30, "", "x", "0.5", "NaN", [], {},
               [0.5] * 3, {"x": 0.5}, "data:image/png;base64,AAAA", "#12345", "black", "/etc/passwd", "../secret.png",
               "two\nlines", "y" * 1000]
