@@ -158,6 +158,26 @@ def test_a_resume_in_place_is_exact_across_a_stop_mid_epoch(tmp_path):
     assert resumed["val/psnr"] == straight["val/psnr"]
 
 
+def test_a_signal_stops_training_between_steps_so_the_resume_is_exact_also_at_an_epoch_end(tmp_path):
+    from nsp.training.run import StopBetweenSteps
+
+    tiny = [*TINY_TRAIN, "model.channel_mult=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=16",
+            "data.test_size=16", "trainer.max_steps=10"]
+    straight = train(compose_train(tmp_path / "straight", *tiny))
+    for step in (4, 6):  # epochs of 4 steps: at the end of the first (its validation still to come), and within one
+        class Signal(L.Callback):  # Ctrl-C or SIGTERM arrives while this step runs
+            def on_train_batch_end(self, trainer, *args):
+                if trainer.global_step == step:
+                    next(c for c in trainer.callbacks if isinstance(c, StopBetweenSteps))._ask(signal.SIGTERM, None)
+
+        run = tmp_path / f"stopped_at_{step}"
+        with pytest.raises(KeyboardInterrupt):
+            train(compose_train(run, *tiny), callbacks=[Signal()])
+        last = run / "checkpoints" / "last.ckpt"
+        assert torch.load(last, weights_only=True)["global_step"] == step
+        assert train(compose_train(run, *tiny, f"ckpt_path={last}"))["val/psnr"] == straight["val/psnr"]
+
+
 def test_a_checkpoint_that_cannot_be_resumed_is_one_line(tmp_path):
     train(compose_train(tmp_path, *TINY_TRAIN, "trainer.max_steps=2"))
     good = tmp_path / "checkpoints" / "last.ckpt"

@@ -77,3 +77,35 @@ def test_an_interrupted_parallel_sweep_keeps_each_jobs_painting_and_starts_no_ot
         assert (tmp_path / job / "final.png").is_file()
     assert metrics(tmp_path / "2_oilpaint") == {"status": "interrupted", "error": "the sweep was interrupted before this job began"}
     assert not (tmp_path / "2_oilpaint" / "strokes.json").exists()
+
+
+def test_a_stopped_training_sweep_run_again_resumes_and_matches_a_sweep_never_stopped(tmp_path):
+    """SIGTERM mid-way through job 1 of 3; the same command again keeps job 0 untouched, resumes job 1
+    from its last.ckpt, runs job 2, and every job ends as in a sweep that was never stopped."""
+    steps = ["renderer=dcgan", "brush=tape", "data.epoch_size=80", "trainer.max_steps=40", "seed=0,1,2",
+             *(o for o in TINY_TRAIN if not o.startswith(("trainer.max_steps", "data.epoch_size")))]
+    stopped, never = tmp_path / "stopped", tmp_path / "never"
+    run = subprocess.Popen([sys.executable, "-m", "nsp.train", "-m", *steps, f"hydra.sweep.dir={stopped}"],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, preexec_fn=foreground)
+    deadline = time.monotonic() + 240
+    while not (stopped / "1_dcgan_tape" / "checkpoints" / "last.ckpt").exists():  # job 1 is past its first epoch
+        assert run.poll() is None and time.monotonic() < deadline, run.communicate()[1]
+        time.sleep(0.1)
+    run.send_signal(signal.SIGTERM)
+    assert run.wait(timeout=120) == 130
+    assert [metrics(stopped / f"{n}_dcgan_tape")["status"] for n in range(3)] == ["completed", "interrupted", "interrupted"]
+    assert metrics(stopped / "1_dcgan_tape")["steps"] < 40
+    finished = (stopped / "0_dcgan_tape" / "checkpoints" / "last.ckpt").stat().st_mtime_ns
+
+    other = sweep("nsp.train", stopped, "renderer=dcgan", "brush=tape", "seed=7,8")  # another command: still refused
+    assert other.returncode == 2 and "already holds another sweep" in other.stderr.strip().splitlines()[-1]
+    again = sweep("nsp.train", stopped, *steps)
+    assert again.returncode == 0, again.stderr
+    assert f"resuming the sweep in {stopped}: 1 completed job kept, the rest run, training from its last.ckpt" in again.stdout
+    assert "0_dcgan_tape: completed in an earlier run of this sweep; kept" in again.stdout
+    assert (stopped / "0_dcgan_tape" / "checkpoints" / "last.ckpt").stat().st_mtime_ns == finished
+    assert sweep("nsp.train", never, *steps).returncode == 0
+    for n in range(3):
+        resumed, straight = (metrics(root / f"{n}_dcgan_tape") for root in (stopped, never))
+        assert {**resumed, "seconds": 0} == {**straight, "seconds": 0}, n
+    assert "3 jobs: 3 completed." in write_report(stopped)[0].read_text()

@@ -39,6 +39,7 @@ from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, read_write
 from omegaconf.errors import OmegaConfBaseException
+import yaml
 
 from nsp.config import BRUSH_NAMES, CONF
 from nsp.errors import BadInput, RunFailed
@@ -88,12 +89,19 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
     A :class:`~nsp.errors.BadInput` is a wrong value whose message is the whole story; any other
     error in a sweep also becomes a record, with its traceback in ``traceback.txt``. An interrupted job
     of a sweep (its work has kept what it had) is recorded as such, and the jobs after it do not start.
+    A sweep run again into its own dir (:class:`RunDirs`) keeps the jobs that completed (their recorded
+    metrics are the result) and resumes interrupted training from the job's ``last.ckpt``.
     """
     out = Path(cfg.output_dir)
     stop = Path(HydraConfig.get().sweep.dir) / STOPPED if in_sweep() else None
     if stop is not None and stop.exists():
         record(out, "interrupted", "the sweep was interrupted before this job began")
         return None
+    if stop is not None and _status(out / "metrics.json") == "completed":  # a sweep run again: its finished jobs stay
+        print(f"{out.name}: completed in an earlier run of this sweep; kept", flush=True)
+        return json.loads((out / "metrics.json").read_text())
+    if stop is not None and cfg.get("ckpt_path", "") is None and (last := out / "checkpoints" / "last.ckpt").is_file():
+        cfg.ckpt_path = str(last)  # an interrupted training job of a sweep run again: on from where it stopped
     try:
         return work(cfg)
     except (BadInput, InstantiationException, RunFailed, OSError) as error:  # a value refused, a run that could not go on
@@ -136,9 +144,14 @@ class Sweeps(Callback):
         def wait(signum: int, frame: Any) -> None:
             stop.parent.mkdir(parents=True, exist_ok=True)
             stop.touch()
-            if signum == signal.SIGTERM:
+            if signum == signal.SIGTERM:  # to the jobs alone: a script that started the sweep is not stopped
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
-                os.killpg(os.getpgrp(), signal.SIGINT)
+                workers = _children()
+                for pid in workers if workers is not None else []:
+                    with suppress(ProcessLookupError):
+                        os.kill(pid, signal.SIGINT)
+                if workers is None:  # no /proc: the whole process group, as Ctrl-C in a terminal
+                    os.killpg(os.getpgrp(), signal.SIGINT)
 
         signal.signal(signal.SIGINT, wait)
         signal.signal(signal.SIGTERM, wait)
@@ -157,6 +170,20 @@ class Sweeps(Callback):
             sys.exit(FAILED)
 
 
+def _children() -> list[int] | None:
+    """The ids of this process's children (the launcher's workers), from Linux's ``/proc``; None
+    where that cannot be read."""
+    me, children = os.getpid(), []
+    try:
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            with suppress(OSError, ValueError, IndexError):  # a process that ended meanwhile
+                if int(stat.read_text().rsplit(")", 1)[1].split()[1]) == me:  # the field after the name: state, ppid
+                    children.append(int(stat.parent.name))
+    except OSError:
+        return None
+    return children if Path("/proc/self/stat").exists() else None
+
+
 def _status(path: Path) -> str | None:
     """A job's status as its ``metrics.json`` says (``completed`` where it names none); None where
     the job wrote none or it cannot be read."""
@@ -171,7 +198,9 @@ class RunDirs(Callback):
     second gets a fresh sibling (``…_2``); a dir the user named that already holds a run's files
     (more than the config and log of a run that never started) is refused with one line and
     :data:`BAD_INPUT`, before anything is written. A training run resuming from a
-    checkpoint inside its own dir (``ckpt_path=DIR/checkpoints/last.ckpt``) continues in place.
+    checkpoint inside its own dir (``ckpt_path=DIR/checkpoints/last.ckpt``) continues in place, and a
+    sweep run again with the same command line into its own ``hydra.sweep.dir`` resumes there
+    (:func:`run_job`). A named dir is claimed for the process (:func:`_take`) while it runs.
     """
 
     def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
@@ -188,7 +217,7 @@ class RunDirs(Callback):
             return  # resuming in place
         try:
             if any(o.split("=", 1)[0].lstrip("+~") == key for o in config.hydra.overrides.hydra):
-                RunDirs._named(path, key)
+                RunDirs._named(config, path, key)
             else:
                 RunDirs._fresh(config, path, key)
         except OSError as error:  # a parent that is a file, a read-only or full disk
@@ -197,14 +226,23 @@ class RunDirs(Callback):
             sys.exit(BAD_INPUT)
 
     @staticmethod
-    def _named(path: Path, key: str) -> None:
-        if path.is_dir() and any(not p.name.startswith(".") and p.suffix != ".log" for p in path.iterdir()):  # .hydra, claims
-            print(f"error: {key}={path} already holds a run; name a new dir, or remove that one first", file=sys.stderr)
+    def _named(config: DictConfig, path: Path, key: str) -> None:
+        held = path.is_dir() and any(not p.name.startswith(".") and p.suffix != ".log" for p in path.iterdir())  # .hydra, claims
+        sweep = key == "hydra.sweep.dir"
+        if held and not (sweep and _same_sweep(path, config)):
+            print(f"error: {key}={path} already holds {'another sweep' if sweep else 'a run'}; name a new dir, or remove "
+                  "that one first" + (" (the same command again resumes its own sweep)" if sweep else ""), file=sys.stderr)
             sys.exit(BAD_INPUT)
         path.mkdir(parents=True, exist_ok=True)
-        if key == "hydra.run.dir" and not _take(path):
-            print(f"error: {key}={path} is taken by another run that is still going; name a new dir", file=sys.stderr)
+        if not _take(path):
+            print(f"error: {key}={path} is taken by another {'sweep' if sweep else 'run'} that is still going; "
+                  "name a new dir", file=sys.stderr)
             sys.exit(BAD_INPUT)
+        if held:  # this sweep again: run_job keeps its completed jobs and resumes the others
+            (path / STOPPED).unlink(missing_ok=True)
+            kept = sum(_status(job / "metrics.json") == "completed" for job in path.iterdir() if (job / ".hydra").is_dir())
+            resumes = ", training from its last.ckpt" if "ckpt_path" in config else ""
+            print(f"resuming the sweep in {path}: {counted(kept, 'completed job')} kept, the rest run{resumes}", flush=True)
 
     @staticmethod
     def _fresh(config: DictConfig, path: Path, key: str) -> None:
@@ -218,6 +256,14 @@ class RunDirs(Callback):
                 fresh = path.with_name(f"{path.name}_{n}")
         with read_write(config.hydra):  # made read-only by HydraConfig above
             OmegaConf.update(config, key, str(fresh))
+
+
+def _same_sweep(path: Path, config: DictConfig) -> bool:
+    """Whether ``path`` holds a sweep of the same command line as ``config``'s (its ``multirun.yaml``)."""
+    try:
+        return list(OmegaConf.load(path / "multirun.yaml").hydra.overrides.task) == list(config.hydra.overrides.task)
+    except (OSError, yaml.YAMLError, OmegaConfBaseException, AttributeError):
+        return False
 
 
 def _take(path: Path) -> bool:

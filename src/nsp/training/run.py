@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import logging
 import math
+import signal
 import time
 import warnings
 from contextlib import contextmanager, suppress
@@ -47,6 +48,35 @@ class SaveOnInterrupt(Callback):
     def on_exception(self, trainer: L.Trainer, pl_module: L.LightningModule, exception: BaseException) -> None:
         if isinstance(exception, (KeyboardInterrupt, SIGTERMException)):
             trainer.save_checkpoint(self.path)
+
+
+class StopBetweenSteps(Callback):
+    """Ctrl-C and SIGTERM while fitting stop training at the end of the step under way (after a
+    validation pass under way), so the checkpoint :class:`SaveOnInterrupt` writes resumes exactly; a
+    second one stops at once. Lightning's own SIGTERM handling, where it runs, also stops between steps."""
+
+    def __init__(self):
+        self.asked = False
+
+    @contextmanager
+    def listening(self) -> Iterator[None]:
+        """Hear the signals while the block (``trainer.fit``) runs; one a shell set ignored stays ignored."""
+        signals = [sig for sig in (signal.SIGINT, signal.SIGTERM) if signal.getsignal(sig) is not signal.SIG_IGN]
+        previous = {sig: signal.signal(sig, self._ask) for sig in signals}
+        try:
+            yield
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+    def _ask(self, signum: int, frame) -> None:
+        if self.asked:
+            raise KeyboardInterrupt
+        self.asked = True
+
+    def on_train_batch_start(self, trainer: L.Trainer, *args) -> None:
+        if self.asked:  # the step before, and the validation pass that ended its epoch, are done
+            raise KeyboardInterrupt
 
 
 class AtomicCheckpointIO(TorchCheckpointIO):
@@ -125,9 +155,10 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
     )
     logger = RunLogger(out, name="tensorboard", version="", default_hp_metric=False)
     checkpoints = out / "checkpoints"
-    last_validation = ValidateLastStep()
+    last_validation, stop = ValidateLastStep(), StopBetweenSteps()
     callbacks = [
         *callbacks,
+        stop,
         StopOnNonFinite(),  # before the checkpoints: Lightning calls ModelCheckpoint's hooks last
         last_validation,
         # no version counter: a resumed run keeps best.ckpt and last.ckpt current in place
@@ -147,7 +178,8 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
 
     start = time.perf_counter()
     try:
-        trainer.fit(model, datamodule=data, ckpt_path=cfg.ckpt_path)
+        with stop.listening():
+            trainer.fit(model, datamodule=data, ckpt_path=cfg.ckpt_path)
     except SystemExit:  # Lightning exits after Ctrl-C or SIGTERM, once last.ckpt is saved
         _finish(trainer, logger, cfg, trainer.callback_metrics, start, "interrupted")
         raise KeyboardInterrupt from None
@@ -188,6 +220,7 @@ def quiet_lightning() -> Iterator[None]:
     try:
         with warnings.catch_warnings():
             for message in ("You're resuming from a checkpoint that ended before the epoch ended",
+                            "Checkpoint directory .* exists and is not empty",  # a resume in place
                             r".*isinstance\(treespec, LeafSpec\)", "The number of training batches .* logging interval"):
                 warnings.filterwarnings("ignore", message)
             yield
