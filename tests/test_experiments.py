@@ -21,6 +21,7 @@ TINY_TRAIN = [
 COMPARISON, ABLATION, BRUSHES = "dcgan,pxlshuffle,unet,dual", "dual_raster,dual_shading,dual", "oilpaint,watercolor"
 SWEEPS = {  # experiment: renderers, brushes, seeds
     "renderer_lr": ("dcgan,pxlshuffle,unet,dual,dual_raster,dual_shading", BRUSHES, "0"),
+    "renderer_lr_64": ("dcgan,pxlshuffle,unet,dual,dual_raster,dual_shading", BRUSHES, "0"),
     "renderer_comparison": (COMPARISON, BRUSHES, "0,1,2"),
     "renderer_comparison_64": (COMPARISON, BRUSHES, "0,1"),
     "renderer_comparison_paper": (COMPARISON, BRUSHES, "0,1,2"),
@@ -28,6 +29,9 @@ SWEEPS = {  # experiment: renderers, brushes, seeds
     "renderer_ablation_64": (ABLATION, BRUSHES, "0,1"),
     "renderer_ablation_paper": (ABLATION, BRUSHES, "0,1,2"),
 }
+
+
+SHORT_64 = ("renderer_comparison_64", "renderer_ablation_64")  # 500 steps, until the 64-px rates are chosen
 
 
 def compose_with_hydra(root: str, name: str, overrides: list[str]):
@@ -39,7 +43,8 @@ def compose_with_hydra(root: str, name: str, overrides: list[str]):
 
 def test_experiment_files_are_the_ones_tested():
     assert {p.stem for p in (CONF / "train" / "experiment").glob("*.yaml")} == set(SWEEPS)
-    assert {p.stem for p in (CONF / "paint" / "experiment").glob("*.yaml")} == {"ot_push", "ot_digits", "style_grid", "style_heldout"}  # style_*: tests/test_stylize.py
+    assert {p.stem for p in (CONF / "paint" / "experiment").glob("*.yaml")} == {"ot_push", "ot_digits", "renderer_painting", "style_grid",
+                                                                                 "style_heldout"}  # style_*: tests/test_stylize.py
 
 
 @pytest.mark.parametrize("experiment", SWEEPS)
@@ -54,7 +59,7 @@ def test_training_experiment_sweeps_the_papers_renderers_and_runs_two_steps(expe
         assert (cfg.model.size, cfg.data.epoch_size, cfg.trainer.max_epochs, cfg.trainer.accelerator) == (128, 50_000, 400, "gpu")
         assert cfg.model.optimizer.lr == 2e-4  # the paper's, for every renderer
     else:  # one budget for every renderer, in steps, small enough for a CPU
-        size, steps = (64, 500) if experiment.endswith("_64") else (32, 1500)
+        size, steps = 64 if experiment.endswith("_64") else 32, 500 if experiment in SHORT_64 else 1500
         assert (cfg.model.size, cfg.trainer.max_steps, cfg.data.batch_size, cfg.trainer.accelerator) == (size, steps, 64, "cpu")
 
     cfg = compose_with_hydra("train", "train", [f"experiment={experiment}", "renderer=dual", "brush=watercolor",
@@ -126,3 +131,52 @@ def test_launchers_compose(root, name, launcher, target):
     assert cfg.hydra.launcher._target_.endswith(target)
     if launcher == "slurm":
         assert cfg.hydra.launcher.gpus_per_node == 1 and cfg.hydra.launcher.timeout_min > 0
+
+
+@pytest.fixture(scope="module")
+def trained_sweep(tmp_path_factory) -> Path:
+    """A finished training sweep of two tiny DCGAN-G renderers of tape (seeds 0 and 1)."""
+    register_configs()
+    sweep = tmp_path_factory.mktemp("renderer_comparison")
+    for seed in (0, 1):
+        train(compose_with_hydra("train", "train", ["renderer=dcgan", "brush=tape", *TINY_TRAIN, "data.num_workers=0",
+                                                    f"seed={seed}", f"output_dir={sweep / f'{seed}_dcgan_tape_seed{seed}'}"]))
+    return sweep
+
+
+def test_renderer_painting_paints_through_every_checkpoint_and_the_analytic_renderer(trained_sweep, tmp_path, capsys,
+                                                                                      monkeypatch):
+    from test_catalogue import run_cli
+
+    from nsp.reporting import write_report
+
+    code, err = run_cli("nsp.paint", ["-m", "experiment=renderer_painting", f"task.sweep={trained_sweep}", "image=astronaut,chelsea",
+                                      "strokes=3,6", "work_size=32", "animation_size=32", "hydra/launcher=basic",
+                                      f"hydra.sweep.dir={tmp_path}"], capsys, monkeypatch)
+    assert code == 0, err
+    jobs = [json.loads(p.read_text()) for p in sorted(tmp_path.glob("*/metrics.json"))]
+    assert len(jobs) == 3 * 2 * 2  # (2 checkpoints + analytic) × 2 photos × 2 budgets
+    trained = {seed: json.loads((trained_sweep / f"{seed}_dcgan_tape_seed{seed}" / "metrics.json").read_text()) for seed in (0, 1)}
+    for job in jobs:
+        assert job["brush"] == "tape" and 0 < job["ssim"] < 1 and job["strokes"] in (3, 6)
+        if job["renderer"] == "dcgan":
+            assert job["renderer_psnr"] == trained[job["seed"]]["test/psnr"]
+        else:
+            assert job["renderer"] == "analytic" and "renderer_psnr" not in job
+    report = write_report(tmp_path)
+    text = report[0].read_text()
+    table = text.split("## Painting through each renderer: tape")[1]
+    assert "| renderer | test PSNR | PSNR @3 | SSIM @3 | seconds @3 | PSNR @6 | SSIM @6 | seconds @6 |" in table
+    rows = [line for line in table.splitlines() if line.startswith(("| dcgan", "| analytic"))]
+    mean = sum(trained[s]["test/psnr"] for s in (0, 1)) / 2
+    assert rows[0].startswith(f"| dcgan | {mean:.2f} ± ") and rows[1].startswith("| analytic | — | ")
+    assert (tmp_path / "renderer_vs_painting.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_renderer_painting_of_a_dir_without_trained_renderers_is_one_line(tmp_path, capsys, monkeypatch):
+    from test_catalogue import run_cli
+
+    code, err = run_cli("nsp.paint", ["-m", "experiment=renderer_painting", f"task.sweep={tmp_path}",
+                                      f"hydra.sweep.dir={tmp_path / 'out'}"], capsys, monkeypatch)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and f"task.sweep={tmp_path} holds no completed training job" in lines[0], err

@@ -477,6 +477,10 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
         sys.exit(INTERRUPTED)
     except (HydraException, OmegaConfBaseException) as error:  # composing: a value or key the config rejects
         fail(_one_line(error))
+    except ValueError as error:  # Hydra's own flags that do not go together (-m with --cfg)
+        if not str(error).startswith("Only one of"):
+            raise
+        fail(str(error))
     except OSError as error:  # Hydra's own files (a job's .hydra/, multirun.yaml) on a disk that refuses them
         if error.errno not in REFUSED_WRITES:
             raise

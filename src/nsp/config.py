@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Optional
 
 from hydra.core.config_store import ConfigStore
+from omegaconf import OmegaConf
 
 CONF = Path(__file__).parent / "conf"  # each command's YAML: conf/paint, conf/train, conf/render (in a checkout, a link to the top-level conf/)
 
@@ -32,3 +33,13 @@ def register_brushes() -> None:
 
 
 register_brushes()
+
+
+def _trained_renderers(sweep: str) -> str:
+    from nsp.experiments.renderers import trained_renderers  # light: no torch
+
+    return trained_renderers(sweep)
+
+
+# ${trained_renderers:DIR} in a sweep's params: the checkpoints of a training sweep (conf/paint/experiment/renderer_painting.yaml)
+OmegaConf.register_new_resolver("trained_renderers", _trained_renderers, replace=True)

@@ -17,7 +17,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from nsp.reporting.collect import Job, swept_keys  # noqa: E402
-from nsp.reporting.tables import PANEL, group_keys, headline, label, stat  # noqa: E402
+from nsp.reporting.tables import (  # noqa: E402
+    PANEL, group_keys, headline, is_painting_study, label, painting_scores, stat,
+)
 
 SKIPPED = {"epoch"}  # Lightning's bookkeeping, not a measurement
 
@@ -105,14 +107,45 @@ def plot_bars(jobs: list[Job], metric: str, path: Path) -> None:
     plt.close(fig)
 
 
+def plot_painting_study(jobs: list[Job], path: Path) -> None:
+    """Renderer test PSNR against painting PSNR, a panel per brush: a point per checkpoint and stroke
+    budget (its painting PSNR the mean over photos), the analytic renderer a dashed line per budget."""
+    brushes = list(dict.fromkeys(job.metrics["brush"] for job in jobs if "brush" in job.metrics))
+    fig, axes = plt.subplots(1, len(brushes), figsize=(5 * len(brushes), 4), squeeze=False)
+    markers, lines = iter("osD^v<>p*h"), iter(["--", ":", "-.", (0, (5, 5))] * 3)
+    shape: dict[int, tuple] = {}
+    for ax, brush in zip(axes[0], brushes):
+        scores = painting_scores(jobs, brush)
+        renderers = sorted({r for r, _ in scores if r != "analytic"})
+        for (renderer, budget), seeds in sorted(scores.items()):
+            marker, line = shape.setdefault(budget, (next(markers), next(lines)))
+            if renderer == "analytic":
+                ax.axhline(seeds[None]["psnr"], color="black", linestyle=line, linewidth=1, label=f"analytic, {budget} strokes")
+                continue
+            points = [(s["renderer_psnr"], s["psnr"]) for s in seeds.values() if "renderer_psnr" in s]
+            color = f"C{renderers.index(renderer)}"
+            ax.scatter(*zip(*points), marker=marker, color=color, label=f"{renderer}, {budget} strokes")
+        ax.set_title(f"{PANEL}={brush}")
+        ax.set_xlabel("renderer test PSNR (dB)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    axes[0][0].set_ylabel("painting PSNR (dB), mean over photos")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
 def plot_all(jobs: list[Job], out: Path) -> list[Path]:
-    """Every curve's ``<tag>.png`` and the headline's ``final_<metric>.png`` (``/`` as ``_``) in ``out``;
-    returns the files written."""
+    """Every curve's ``<tag>.png`` and the headline's ``final_<metric>.png`` (``/`` as ``_``) in ``out``,
+    for a renderer → painting study its ``renderer_vs_painting.png`` instead; returns the files written."""
     paths = []
     for tag in curve_tags(jobs):
         paths.append(out / f"{tag.replace('/', '_')}.png")
         plot_tag(jobs, tag, paths[-1])
-    if metric := headline(jobs):
+    if is_painting_study(jobs):
+        paths.append(out / "renderer_vs_painting.png")
+        plot_painting_study(jobs, paths[-1])
+    elif metric := headline(jobs):
         paths.append(out / f"final_{metric.replace('/', '_')}.png")
         plot_bars(jobs, metric, paths[-1])
     return paths

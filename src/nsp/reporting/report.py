@@ -8,7 +8,8 @@ from nsp.errors import BadInput
 from nsp.reporting.collect import Job, collect, common_overrides, latest_sweep, swept_keys
 from nsp.reporting.plots import plot_all
 from nsp.reporting.tables import (
-    SEED, chosen_rates, headline, is_renderer_sweep, job_rows, margins, pivot, shown_jobs, to_csv, to_markdown,
+    SEED, chosen_rates, headline, is_painting_study, is_renderer_sweep, job_rows, margins, painting_table, pivot,
+    shown_jobs, to_csv, to_markdown,
 )
 
 
@@ -58,6 +59,12 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
         if table := chosen_rates(jobs):
             lines += ["## Learning rate per renderer", "",
                       "Validation PSNR averaged over brushes; `chosen` is the best.", "", to_markdown(*table)]
+    if is_painting_study(jobs):
+        for brush in dict.fromkeys(job.metrics["brush"] for job in jobs if "brush" in job.metrics):
+            lines += [f"## Painting through each renderer: {brush}", "",
+                      "Each painting scored as the vector engine draws its strokes (PSNR, SSIM at a 256-px long side); "
+                      "each cell the mean over photos, as mean ± std over the renderers' training seeds.", "",
+                      to_markdown(*painting_table(jobs, brush))]
     if plots:
         lines += ["## Plots", ""] + [f"![{path.stem}]({path.name})" for path in plots] + [""]
     return "\n".join(lines)

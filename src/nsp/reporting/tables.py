@@ -211,6 +211,53 @@ def chosen_rates(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
     return header, rows
 
 
+STUDY_RENDERER = "task.renderer"  # experiment=renderer_painting's swept renderer: a checkpoint, or analytic:BRUSH
+
+
+def is_painting_study(jobs: list[Job]) -> bool:
+    """Jobs of ``experiment=renderer_painting``: paintings, each through a trained or the analytic renderer."""
+    return any(STUDY_RENDERER in job.overrides and "brush" in job.metrics for job in jobs)
+
+
+def painting_scores(jobs: list[Job], brush: str) -> dict[tuple[str, int], dict[object, dict[str, float]]]:
+    """(renderer, budget) -> training seed (None: analytic) -> the mean over photos of ``psnr``, ``ssim``,
+    ``painting_seconds`` and the checkpoint's ``renderer_psnr``, over the completed paintings of ``brush``."""
+    cells: dict = {}
+    for job in jobs:
+        if job.status == "completed" and job.metrics.get("brush") == brush and score(job, "psnr") is not None:
+            key = (str(job.metrics.get("renderer")), int(job.metrics.get("strokes", 0)))
+            cells.setdefault(key, {}).setdefault(job.metrics.get("seed"), []).append(job.metrics)
+    keys = ("psnr", "ssim", "painting_seconds", "renderer_psnr")
+    return {cell: {seed: {k: statistics.fmean(m[k] for m in runs) for k in keys if all(isinstance(m.get(k), Number) for m in runs)}
+                   for seed, runs in seeds.items()} for cell, seeds in cells.items()}
+
+
+def painting_table(jobs: list[Job], brush: str) -> tuple[list[str], list[list]]:
+    """A row per renderer (the analytic one last): its test PSNR, then per stroke budget the painting's
+    PSNR, SSIM and seconds, each the mean over photos, as mean ± std over training seeds."""
+    scores = painting_scores(jobs, brush)
+    renderers = sorted({r for r, _ in scores}, key=lambda r: (r == "analytic", r))
+    budgets = sorted({b for _, b in scores})
+    header = ["renderer", "test PSNR", *(f"{name} @{b}" for b in budgets for name in ("PSNR", "SSIM", "seconds"))]
+
+    def cell(values: list[float], spec: str) -> str | None:
+        if not values:
+            return None
+        stat = Stat(values)
+        return format(stat.mean, spec) + (f" ± {format(stat.std, spec)}" if len(values) > 1 else "")
+
+    rows = []
+    for renderer in renderers:
+        seeds = next(scores[(renderer, b)] for b in budgets if (renderer, b) in scores)
+        row: list = [renderer, cell([s["renderer_psnr"] for s in seeds.values() if "renderer_psnr" in s], ".2f")]
+        for budget in budgets:
+            runs = scores.get((renderer, budget), {}).values()
+            row += [cell([s[k] for s in runs if k in s], spec)
+                    for k, spec in (("psnr", ".2f"), ("ssim", ".3f"), ("painting_seconds", ".1f"))]
+        rows.append(row)
+    return header, rows
+
+
 def rate_order(rate) -> tuple:
     """Rates by value; one that is not a number (a typo, none recorded) after them, by its text."""
     try:
