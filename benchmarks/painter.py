@@ -34,7 +34,7 @@ import torch.nn.functional as F
 from PIL import Image
 
 from nsp.brushes import BRUSHES
-from nsp.painter.images import BUILTIN, load_image
+from nsp.images import BUILTIN, load_image
 
 sys.path.insert(0, str(Path(__file__).parent))
 from doc import DOC, machine, write_section  # noqa: E402

@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from doc import machine, write_section  # noqa: E402
 from painter import paint_once, scores  # noqa: E402
 
-from nsp.painter.images import BUILTIN, load_image  # noqa: E402
+from nsp.images import BUILTIN, load_image  # noqa: E402
 
 HERE = Path(__file__).resolve().parent.parent
 

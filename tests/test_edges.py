@@ -23,6 +23,7 @@ import pytest
 import torch
 from test_catalogue import PAINT_BASE, TRAIN_BASE, run_cli
 
+import nsp.files
 import nsp.io.export
 from nsp.io.strokes import StrokeFileError, load_strokes
 
@@ -85,7 +86,7 @@ def test_a_run_dir_on_a_read_only_disk_is_one_line(tmp_path, capsys, monkeypatch
 @contextmanager
 def full_disk(monkeypatch, *names: str):
     """Every nsp file named ``names`` (all, if none) fails to write as on a full disk."""
-    atomic_path = nsp.io.export.atomic_path
+    atomic_path = nsp.files.atomic_path
 
     @contextmanager
     def refused(path):
@@ -94,9 +95,11 @@ def full_disk(monkeypatch, *names: str):
         with atomic_path(path) as temporary:
             yield temporary
 
-    monkeypatch.setattr(nsp.io.export, "atomic_path", refused)
+    for module in (nsp.files, nsp.io.export):  # JSON, and the pictures
+        monkeypatch.setattr(module, "atomic_path", refused)
     yield
-    monkeypatch.setattr(nsp.io.export, "atomic_path", atomic_path)
+    for module in (nsp.files, nsp.io.export):
+        monkeypatch.setattr(module, "atomic_path", atomic_path)
 
 
 def test_a_disk_that_fills_while_a_painting_writes_keeps_what_was_written(tmp_path, capsys, monkeypatch):
@@ -232,8 +235,8 @@ def _ended() -> int:
 
 
 def test_what_a_killed_writer_left_is_removed_by_the_next_and_a_running_ones_kept(tmp_path):
-    from nsp.io.atomic import remove_leftovers
-    from nsp.io.export import write_json
+    from nsp.files import remove_leftovers
+    from nsp.files import write_json
 
     gone, alive = _ended(), os.getpid()
     for pid in (gone, alive):

@@ -9,12 +9,12 @@ import pytest
 import torch
 from PIL import Image
 
-from nsp.painter.images import ImageError, load_image, long_side
+from nsp.images import ImageError, load_image, long_side
 
 RED, BLUE, WHITE = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 1.0)
 PEAK_GROWTH = r"""
 import re, sys
-from nsp.painter.images import load_image
+from nsp.images import load_image
 
 def peak_kib():
     return int(re.search(r"VmHWM:\s+(\d+)", open("/proc/self/status").read())[1])
@@ -168,7 +168,7 @@ def test_a_20000_pixel_square_passes_the_size_limit(tmp_path):
 def test_ssim_is_skimages_gaussian_ssim(channels):
     from skimage.metrics import structural_similarity
 
-    from nsp.painter.images import ssim
+    from nsp.images import ssim
 
     generator = torch.Generator().manual_seed(channels)
     a = torch.rand(channels, 40, 33, generator=generator, dtype=torch.float64)

@@ -10,17 +10,17 @@ import torch
 from nsp.brushes import BRUSHES, get_brush
 from nsp.config import CONF
 from nsp.engine import paint_canvas, render
+from nsp.images import load_image
+from nsp.images import resize
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
 from nsp.painter.faces import Box, find_faces
-from nsp.painter.images import load_image
-from nsp.painter.images import resize
 from nsp.painter.losses import PaintLoss
 from nsp.painter.optimize import RMSprop
 from nsp.painter.painter import Callback, Painter
 from nsp.painter.palette import Palette
 from nsp.painter.placement import largest_errors, place_strokes
-from nsp.painter.structure import orientation, structure_tensor
 from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
+from nsp.painter.structure import orientation, structure_tensor
 
 
 def patches(height: int = 32, width: int = 32) -> torch.Tensor:

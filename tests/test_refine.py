@@ -6,11 +6,12 @@ import skimage.data
 import torch
 
 from nsp.brushes import BRUSHES
-from nsp.brushes.svg import hex_color
-from nsp.engine import paint_canvas, parse_color
+from nsp.colors import hex_color
+from nsp.colors import parse_color
+from nsp.colors import rgb_to_lab
+from nsp.engine import paint_canvas
 from nsp.experiments.style import ceiling
 from nsp.style import Recoloring
-from nsp.style.color import rgb_to_lab
 from nsp.style.measures import coherence, color_distance, luminance_ssim
 from nsp.style.refine import color_basis, colors, footprints, probes, refine_colors, style_spread, with_colors
 

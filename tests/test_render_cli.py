@@ -7,6 +7,7 @@ import sys
 import imageio.v3 as iio
 import numpy as np
 import pytest
+import resvg_py as resvg  # a dev dependency: SVGs drawn as a browser draws them
 import torch
 from PIL import Image
 
@@ -14,7 +15,7 @@ from omegaconf import OmegaConf
 
 from nsp.brushes import BRUSHES
 from nsp.engine import memory
-from nsp.io.atomic import atomic_path
+from nsp.files import atomic_path
 from nsp.io.strokes import StrokeFile, load_strokes, save_strokes
 from nsp.render import RenderConfig, render
 
@@ -46,7 +47,6 @@ def psnr(a, b):
 
 @pytest.mark.parametrize("name", list(BRUSHES))
 def test_svg_renders_like_the_png(name, painting, tmp_path):
-    resvg = pytest.importorskip("resvg_py")
     from nsp.io.export import write_painting
 
     p = load_strokes(painting(name))
@@ -132,7 +132,6 @@ def test_an_empty_painting_renders_its_canvas(extension, tmp_path):
     result = run(f"strokes={tmp_path / 'e.json'}", "size=90", f"out={tmp_path / ('e' + extension)}")
     assert result.returncode == 0, result.stderr
     if extension == ".svg":
-        resvg = pytest.importorskip("resvg_py")
         image = Image.open(io.BytesIO(bytes(resvg.svg_to_bytes(svg_path=str(tmp_path / "e.svg")))))
     else:
         image = Image.open(tmp_path / ("e" + extension))

@@ -12,7 +12,7 @@ from torchvision.models.vgg import cfgs, make_layers
 
 from nsp.brushes import get_brush
 from nsp.engine import paint_canvas
-from nsp.painter.images import load_image, resize
+from nsp.images import load_image, resize
 from nsp.style import (
     Recoloring,
     StyleLoss,
@@ -24,7 +24,7 @@ from nsp.style import (
     style_loss,
     vgg19_features,
 )
-from nsp.style.color import lab_to_rgb, rgb_to_lab
+from nsp.colors import lab_to_rgb, rgb_to_lab
 from nsp.style.measures import HELD_OUT_SEED, NEAR, coherence, color_distance, luminance_ssim, texture_distance
 from nsp.style.recolor import KNOTS, STRETCH, chroma_span, gaussian_transport
 

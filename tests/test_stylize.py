@@ -218,8 +218,9 @@ def test_color_mode_needs_no_network_weights_and_writes_style_png(tmp_path):
 def test_missing_vgg_weights_is_one_clear_error(tmp_path):
     import os
 
-    PIL = pytest.importorskip("PIL.Image")
-    PIL.fromarray(skimage.data.coffee()).save(tmp_path / "coffee.png")
+    from PIL import Image
+
+    Image.fromarray(skimage.data.coffee()).save(tmp_path / "coffee.png")
     env = dict(os.environ, TORCH_HOME=str(tmp_path / "empty"))
     result = paint_cli(tmp_path / "run", f"style.image={tmp_path / 'coffee.png'}", env=env)
     assert result.returncode != 0 and "Traceback" not in result.stderr

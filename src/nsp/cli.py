@@ -25,7 +25,7 @@ import signal
 import sys
 import textwrap
 import traceback
-from contextlib import contextmanager, suppress
+from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, NoReturn
@@ -43,6 +43,8 @@ import yaml
 
 from nsp.config import BRUSH_NAMES, CONF
 from nsp.errors import BadInput, RunFailed
+from nsp.signals import interrupt
+from nsp.text import counted
 
 
 FAILED = 1  # some work failed (a crash, or jobs of a sweep)
@@ -65,7 +67,7 @@ REFUSED_WRITES = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.E
 def record(out: Path, status: str, error: str) -> None:
     """Write the job's ``metrics.json`` where the work did not: its status and the one-line reason.
     Where the disk refuses even that, the reason goes to stderr only (the sweep goes on)."""
-    from nsp.io.export import write_json
+    from nsp.files import write_json
 
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -269,7 +271,7 @@ def _same_sweep(path: Path, config: DictConfig) -> bool:
 def _take(path: Path) -> bool:
     """Claim a dir the user named for this process: its :data:`CLAIM` file, linked into place only
     if absent (so of two runs started together, one gets it) or left by a process that has ended."""
-    from nsp.io.atomic import running
+    from nsp.files import running
 
     claim, mine = path / CLAIM, path / f"{CLAIM}.{os.getpid()}"
     mine.write_text(str(os.getpid()))
@@ -288,22 +290,6 @@ def _take(path: Path) -> bool:
         return False
     finally:
         mine.unlink(missing_ok=True)
-
-
-@contextmanager
-def shielded() -> Iterator[None]:
-    """Ctrl-C and SIGTERM wait while the block runs (saving what an interrupted run had), so a
-    second Ctrl-C cannot cut the files short; the first one was already handled."""
-    handlers = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, handler in handlers.items():
-            signal.signal(sig, handler)
-
-
-def _interrupt(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt
 
 
 def quote_text(argv: list[str], keys: Iterable[str]) -> list[str]:
@@ -400,11 +386,6 @@ def sweeping(argv: list[str]) -> bool:
     return any(arg in ("-m", "--multirun") for arg in argv)
 
 
-def counted(count: int | str, noun: str) -> str:
-    """``count`` and ``noun``, plural unless the count is 1: "1 oilpaint stroke", "500 oilpaint strokes"."""
-    return f"{count} {noun}" + ("" if str(count) == "1" else "s")
-
-
 def chosen(argv: list[str], name: str, key: str) -> str | None:
     """What ``key`` (a plain key or a config group) of ``python -m nsp.<name>`` will be, from the
     command line or else the command's YAML, told without composing (which imports torch): None
@@ -469,7 +450,7 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
         _SHOWN.add(line)
     if message := check_overrides(argv, conf, schema()):
         fail(message)
-    signal.signal(signal.SIGTERM, _interrupt)
+    signal.signal(signal.SIGTERM, interrupt)
     os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises its errors here instead of printing them over several lines
     try:
         hydra.main(config_path=str(conf), config_name=name, version_base="1.3")(main)()

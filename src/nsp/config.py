@@ -1,4 +1,5 @@
-"""Config schemas shared by the entry points, registered in Hydra's ConfigStore.
+"""Config schemas shared by the entry points, registered in Hydra's ConfigStore, and the resolver
+that lists a training sweep's checkpoints for a painting sweep.
 
 The ``brush`` group is generated from :data:`BRUSH_NAMES`, so a new brush needs no YAML and a
 misspelt ``brush=`` fails at compose time listing the valid brushes. Nothing here imports torch:
@@ -6,12 +7,15 @@ the commands' ``--help`` reads it.
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
 
 from hydra.core.config_store import ConfigStore
 from omegaconf import OmegaConf
+
+from nsp.errors import BadInput
 
 CONF = Path(__file__).parent / "conf"  # each command's YAML: conf/paint, conf/train, conf/render (in a checkout, a link to the top-level conf/)
 
@@ -35,11 +39,32 @@ def register_brushes() -> None:
 register_brushes()
 
 
-def _trained_renderers(sweep: str) -> str:
-    from nsp.experiments.renderers import trained_renderers  # light: no torch
-
-    return trained_renderers(sweep)
+ANALYTIC = "analytic:"  # experiment=renderer_painting's swept renderer that is the analytic one, for the brush after it
 
 
-# ${trained_renderers:DIR} in a sweep's params: the checkpoints of a training sweep (conf/paint/experiment/renderer_painting.yaml)
-OmegaConf.register_new_resolver("trained_renderers", _trained_renderers, replace=True)
+def trained_renderers(sweep: str) -> str:
+    """``${trained_renderers:DIR}`` (conf/paint/experiment/renderer_painting.yaml): every completed
+    job's final checkpoint (``checkpoints/last.ckpt``, the model its test PSNR scores) in the training
+    sweep ``DIR``, then ``analytic:BRUSH`` for each of their brushes, as one sweep of quoted values."""
+    jobs = sorted(path.parent.parent for path in Path(sweep).glob("*/checkpoints/last.ckpt")
+                  if job_metrics(path.parent.parent).get("status") == "completed")
+    if not jobs:
+        raise BadInput(f"task.sweep={sweep} holds no completed training job with checkpoints/last.ckpt; give the dir "
+                       "of a finished `python -m nsp.train -m experiment=renderer_comparison` (or renderer_ablation)")
+    brushes = dict.fromkeys(job_metrics(job)["brush"] for job in jobs)
+    values = [str(job / "checkpoints" / "last.ckpt") for job in jobs] + [ANALYTIC + brush for brush in brushes]
+    if bad := [value for value in values if "'" in value or "\\" in value]:
+        raise BadInput(f"task.sweep={sweep}: {bad[0]} has a quote or backslash in its path; move the sweep elsewhere")
+    return ",".join(f"'{value}'" for value in values)
+
+
+def job_metrics(job: Path) -> dict:
+    """A run dir's ``metrics.json``; {} where it has none, or none that reads as an object."""
+    try:
+        metrics = json.loads((job / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return metrics if isinstance(metrics, dict) else {}
+
+
+OmegaConf.register_new_resolver("trained_renderers", trained_renderers, replace=True)

@@ -13,7 +13,8 @@ from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
 
-from nsp.cli import INTERRUPTED, Usage, chosen, command, counted, finish, run_job
+from nsp.cli import INTERRUPTED, Usage, chosen, command, finish, run_job
+from nsp.text import counted
 
 log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.log
 
@@ -60,11 +61,14 @@ def opening(argv: list[str]) -> str:
 
 
 def main(cfg: DictConfig) -> float | None:
+    import torch
     from hydra.utils import instantiate
 
     from nsp.painter.run import paint
 
-    if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits)
+    if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits, renderer_painting)
+        if cfg.threads:
+            torch.set_num_threads(cfg.threads)
         metrics = run_job(cfg, instantiate(cfg.task))
         if metrics is not None:
             log.info(f"{cfg.output_dir}: " + ", ".join(f"{key} {value}" for key, value in metrics.items()))

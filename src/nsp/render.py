@@ -55,7 +55,7 @@ ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 def render(cfg: DictConfig) -> Path:
     """Render ``cfg.strokes`` to ``cfg.out``; returns the written path. The file appears whole or
     not at all: an error or an interrupt leaves no partial file."""
-    from nsp.engine.canvas import parse_color
+    from nsp.colors import parse_color
     from nsp.engine.device import resolve_device
     from nsp.engine.memory import check_canvas, stroke_cover
     from nsp.io.export import EXTENSIONS, frame_ends, write_painting

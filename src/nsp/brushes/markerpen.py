@@ -9,7 +9,8 @@ from torch import Tensor
 from nsp.brushes import bezier
 from nsp.brushes.base import Brush, Pixels
 from nsp.brushes.geometry import bezier_nearest
-from nsp.brushes.svg import bezier_points, hex_color
+from nsp.brushes.svg import bezier_points
+from nsp.colors import hex_color
 
 _SQRT2 = 1.4143  # the square tip's corners reach √2·d from the trajectory's ends
 

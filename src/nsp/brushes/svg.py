@@ -10,11 +10,6 @@ import numpy as np
 UNIT = 'x="-0.5" y="-0.5" width="1" height="1"'  # the unit square a rectangle stroke is drawn in
 
 
-def hex_color(rgb) -> str:
-    """(r, g, b) in [0, 1] -> ``#rrggbb``."""
-    return "#" + "".join(f"{round(float(c) * 255):02x}" for c in rgb)
-
-
 def png_data_uri(image: np.ndarray) -> str:
     """An (H, W, 4) RGBA image in [0, 1] as an embedded PNG."""
     from PIL import Image

@@ -11,7 +11,8 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush, Pixels
 from nsp.brushes.geometry import box, rotated_frame, to_pixels
-from nsp.brushes.svg import UNIT, hex_color, rectangle_frame
+from nsp.brushes.svg import UNIT, rectangle_frame
+from nsp.colors import hex_color
 
 
 def rectangle(x: Tensor, pix: Pixels) -> tuple[Tensor, Tensor, Tensor, Tensor]:

@@ -10,8 +10,9 @@ from torch import Tensor
 
 from nsp.brushes import bezier
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.svg import bezier_points, hex_color
 from nsp.brushes.geometry import swept_discs
+from nsp.brushes.svg import bezier_points
+from nsp.colors import hex_color
 
 
 class Watercolor(Brush):

@@ -1,5 +1,5 @@
 """The vector engine: batched antialiased rasterization, its soft mode, compositing."""
-from nsp.engine.canvas import paint_canvas, parse_color
+from nsp.engine.canvas import paint_canvas
 from nsp.engine.raster import composite, render
 
-__all__ = ["composite", "paint_canvas", "parse_color", "render"]
+__all__ = ["composite", "paint_canvas", "render"]

@@ -2,31 +2,15 @@
 from __future__ import annotations
 
 import math
-import re
 from typing import Iterator
 
 import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush
+from nsp.colors import parse_color
 from nsp.engine.fused import pays
 from nsp.engine.raster import composite_tiles, rasterize, to_tiles, untile
-from nsp.errors import BadInput
-
-_NAMED = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
-
-
-def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
-    """``black``, ``white``, ``#rrggbb`` or an RGB triple in [0, 1] -> (r, g, b) in [0, 1]."""
-    if isinstance(value, (tuple, list)) and len(value) == 3:
-        return tuple(float(v) for v in value)
-    text = str(value).strip().lower()
-    if text in _NAMED:
-        return _NAMED[text]
-    if re.fullmatch(r"#[0-9a-f]{6}", text):
-        return tuple(int(text[i : i + 2], 16) / 255 for i in (1, 3, 5))
-    raise BadInput(f"background={value} is not a colour; expected black, white or #rrggbb")
-
 
 CHUNK_PIXELS = 1 << 24  # bounding-box pixels of the strokes rendered at once; their tiles take ~16 B a pixel
 CHUNK_STROKES = 1024  # and the most strokes

@@ -22,7 +22,7 @@ from nsp import brushes
 from nsp.brushes.base import Brush
 from nsp.engine import kernels
 from nsp.engine.kernels import near_tiles, shade_tiles
-from nsp.io.atomic import remove_leftovers
+from nsp.files import remove_leftovers
 
 log = logging.getLogger(__name__)
 COMPILING = ".compiling-"  # a compile's working dir in the cache, named with its process id

@@ -8,7 +8,6 @@ canvas itself dominates.
 """
 from __future__ import annotations
 
-import math
 import os
 
 from torch import Tensor

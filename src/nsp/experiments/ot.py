@@ -24,10 +24,12 @@ from torch.utils.tensorboard import SummaryWriter
 from torchvision.utils import make_grid
 
 from nsp.brushes import Brush, get_brush
-from nsp.engine import composite, paint_canvas, parse_color, render
+from nsp.colors import parse_color
+from nsp.engine import composite, paint_canvas, render
 from nsp.errors import BadInput
-from nsp.io.export import write_json, write_png
-from nsp.painter.images import psnr
+from nsp.files import write_json
+from nsp.images import psnr
+from nsp.io.export import write_png
 from nsp.painter.losses import PaintLoss
 from nsp.painter.optimize import optimize_strokes
 from nsp.painter.renderer import AnalyticRenderer, load_neural

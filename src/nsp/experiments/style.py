@@ -23,17 +23,19 @@ from torch import Tensor
 from torchvision.utils import make_grid
 
 from nsp.brushes import Brush
-from nsp.engine import paint_canvas, parse_color
+from nsp.colors import parse_color
+from nsp.engine import paint_canvas
 from nsp.errors import BadInput
-from nsp.io.export import write_json, write_png
+from nsp.files import write_json
+from nsp.images import BUILTIN, load_image, resize
+from nsp.io.export import write_png
 from nsp.painter.callbacks import ProgressBar
-from nsp.painter.images import BUILTIN, load_image, resize
 from nsp.painter.painter import Painter
 from nsp.painter.run import prepare
 from nsp.painter.stylize import MODES, stylize
 from nsp.style import StyleLoss
-from nsp.style.refine import color_basis, refine_colors
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
+from nsp.style.refine import color_basis, refine_colors
 
 TARGETS = {"color_distance_drop": 0.5, "coherence": 0.05, "ssim_ratio": 0.9}  # colour mode: ≥, ≤, ≥
 CEILING_STEPS = 600  # the search for the ceiling: steps from each of its two starts
@@ -47,7 +49,7 @@ COLUMNS = ("color_distance", "color_distance_drop", "coherence", "luminance_ssim
 
 def style_image(name: str, size: int) -> Tensor:
     """A built-in image, long side ``size``, as RGB (3, h, w) in [0, 1]: a photo of
-    ``nsp.painter.images.BUILTIN`` or any image of ``skimage.data`` (grey ones, such as the
+    ``nsp.images.BUILTIN`` or any image of ``skimage.data`` (grey ones, such as the
     textures brick, grass and gravel, as three equal channels)."""
     if name in BUILTIN:
         return resize(load_image(name, max_side=size), size)

@@ -1,9 +1,7 @@
 """Paintings as files people open: PNG (the engine), SVG (vector elements), GIF (strokes in order)."""
 from __future__ import annotations
 
-import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -12,11 +10,12 @@ from PIL import Image
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.brushes.svg import hex_color
-from nsp.engine.canvas import TiledCanvas, paint_canvas, parse_color
+from nsp.colors import hex_color
+from nsp.colors import parse_color
+from nsp.engine.canvas import TiledCanvas, paint_canvas
 from nsp.engine.fused import pays
 from nsp.errors import BadInput
-from nsp.io.atomic import atomic_path
+from nsp.files import atomic_path
 
 EXTENSIONS = (".png", ".svg", ".gif")
 GIF_FRAMES = 100  # the most frames of an animation after its empty canvas (nsp.io.export.frame_ends)
@@ -25,12 +24,6 @@ GIF_FRAMES = 100  # the most frames of an animation after its empty canvas (nsp.
 def to_uint8(image: Tensor) -> np.ndarray:
     """(3, H, W) in [0, 1] -> (H, W, 3) uint8."""
     return image.detach().clamp(0, 1).mul(255).add_(0.5).to(torch.uint8).permute(1, 2, 0).contiguous().cpu().numpy()
-
-
-def write_json(path: str | Path, data: dict, indent: int = 2) -> None:
-    """Save ``data`` as JSON, atomically."""
-    with atomic_path(path) as temporary:
-        temporary.write_text(json.dumps(data, indent=indent) + "\n")
 
 
 def write_png(path: str | Path, image: Tensor) -> None:

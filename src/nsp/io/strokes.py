@@ -17,9 +17,10 @@ from torch import Tensor
 
 from nsp.brushes import BRUSHES, Brush, get_brush
 from nsp.brushes.texture import EMBEDDED, embedded
-from nsp.engine.canvas import parse_color
+from nsp.colors import parse_color
 from nsp.errors import BadInput
-from nsp.io.export import write_json
+from nsp.files import write_json
+from nsp.text import shown
 
 FORMAT, VERSION = "nsp-strokes", 1
 NPZ_ARRAYS = ("x_ctt", "x_color", "x_alpha")  # the reference's shape-and-position, colour and alpha arrays
@@ -110,10 +111,10 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
             f"strokes={path} is not an nsp stroke file (expected a JSON object with format '{FORMAT}')"
         )
     if data.get("version") != VERSION:
-        raise StrokeFileError(f"strokes={path} has version {_shown(data.get('version'))}; this nsp reads {VERSION}")
+        raise StrokeFileError(f"strokes={path} has version {shown(data.get('version'))}; this nsp reads {VERSION}")
     name = data.get("brush")
     if not isinstance(name, str) or name not in BRUSHES:
-        raise StrokeFileError(f"strokes={path}: unknown brush {_shown(name)}, expected one of: {', '.join(BRUSHES)}")
+        raise StrokeFileError(f"strokes={path}: unknown brush {shown(name)}, expected one of: {', '.join(BRUSHES)}")
     params = data.get("params")
     spec = get_brush(name, params=params if isinstance(params, list) else None)
     if brush is not None and brush != spec.name:
@@ -127,7 +128,7 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
         parse_color(canvas["background"])
     except ValueError:
         raise StrokeFileError(
-            f"strokes={path}: its background {_shown(canvas['background'])} is not a colour; expected black, white or #rrggbb"
+            f"strokes={path}: its background {shown(canvas['background'])} is not a colour; expected black, white or #rrggbb"
         ) from None
     strokes = data.get("strokes")
     keys = ", ".join(spec.params)
@@ -159,12 +160,6 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
     except ValueError as error:
         raise StrokeFileError(f"strokes={path}: its brush cannot be used: {error}") from None
     return StrokeFile(spec, values, canvas["height"], canvas["width"], canvas["background"])
-
-
-def _shown(value) -> str:
-    """A value from a file as a message quotes it: on one line, at most 40 characters."""
-    text = repr(value)
-    return text if len(text) <= 40 else text[:39] + "…"
 
 
 def _is_size(value) -> bool:

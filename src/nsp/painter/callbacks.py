@@ -9,7 +9,7 @@ from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
 from torch.utils.tensorboard.summary import hparams
 
-from nsp.painter.images import psnr, resize
+from nsp.images import psnr, resize
 from nsp.painter.painter import Callback, Painter
 
 

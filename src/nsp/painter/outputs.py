@@ -8,9 +8,9 @@ from torch import Tensor
 
 from nsp.brushes import Brush
 from nsp.engine import paint_canvas
+from nsp.images import long_side, psnr, resize, ssim
 from nsp.io.export import write_gif, write_png, write_svg
 from nsp.io.strokes import StrokeFile, save_strokes
-from nsp.painter.images import long_side, psnr, resize, ssim
 
 SCORE_SIZE = 256  # long side at which psnr and ssim compare the painting with the photo
 

@@ -23,10 +23,11 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.engine import composite, paint_canvas, parse_color
+from nsp.colors import parse_color
+from nsp.engine import composite, paint_canvas
+from nsp.images import long_side, resize
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
 from nsp.painter.faces import Box
-from nsp.painter.images import long_side, resize
 from nsp.painter.optimize import Optimizer, optimize_strokes
 from nsp.painter.palette import Palette
 from nsp.painter.placement import place_strokes

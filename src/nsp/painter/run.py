@@ -18,21 +18,23 @@ from omegaconf import DictConfig, OmegaConf
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.brushes import get_brush
-from nsp.cli import counted, shielded
-from nsp.engine import parse_color
+from nsp.colors import parse_color
 from nsp.engine.device import resolve_device
 from nsp.engine.memory import STYLE_BYTES, WORK_BYTES, check_canvas
 from nsp.errors import BadInput
-from nsp.io.export import frame_ends, write_json, write_png
+from nsp.files import write_json
+from nsp.images import load_image, long_side, resize
+from nsp.io.export import frame_ends, write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
 from nsp.painter.faces import find_faces
-from nsp.painter.images import load_image, long_side, resize
 from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, write_vector_files
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer, load_neural
 from nsp.painter.stylize import stylize
+from nsp.signals import shielded
 from nsp.style import MIN_SIDE, StyleLoss, WeightsNotFound
+from nsp.text import counted
 
 POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_frames", "renderer.softness",
             "renderer.block_size", "schedule.max_per_block")

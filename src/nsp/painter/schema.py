@@ -93,7 +93,7 @@ class PaintConfig:
     render_size, seed) have their defaults in conf/paint/paint.yaml, where they read first; the
     others here. Each default lives in one place."""
 
-    image: str = MISSING  # a PNG/JPEG path, or a built-in photo (see nsp.painter.images.BUILTIN)
+    image: str = MISSING  # a PNG/JPEG path, or a built-in photo (see nsp.images.BUILTIN)
     brush: BrushConfig = MISSING
     strokes: int = MISSING
     background: str = MISSING  # the canvas colour: black, white or #rrggbb

@@ -25,12 +25,13 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.brushes.svg import hex_color
-from nsp.engine import paint_canvas, parse_color
+from nsp.colors import hex_color
+from nsp.colors import parse_color
+from nsp.engine import paint_canvas
 from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
-from nsp.style.refine import refine_colors
 from nsp.style.measures import SAMPLES, alike_pairs, color_distance, luminance_ssim, parted
+from nsp.style.refine import refine_colors
 
 MODES = ("full", "color")
 STRUCTURE = 0.2  # the share of luminance SSIM the recolouring may give up, per unit of β_sty

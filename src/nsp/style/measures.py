@@ -14,8 +14,8 @@ from __future__ import annotations
 import torch
 from torch import Tensor
 
-from nsp.painter.images import ssim
-from nsp.style.color import rgb_to_lab
+from nsp.colors import rgb_to_lab
+from nsp.images import ssim
 from nsp.style.features import random_features
 from nsp.style.losses import sliced_wasserstein, style_loss
 

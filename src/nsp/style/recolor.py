@@ -30,8 +30,8 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.painter.images import ssim
-from nsp.style.color import lab_to_rgb, rgb_to_lab
+from nsp.colors import lab_to_rgb, rgb_to_lab
+from nsp.images import ssim
 from nsp.style.losses import sliced_wasserstein
 from nsp.style.measures import alike_pairs, parted
 

@@ -22,11 +22,12 @@ import torch.nn.functional as F
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.brushes.svg import hex_color
-from nsp.engine import paint_canvas, parse_color
+from nsp.colors import hex_color
+from nsp.colors import parse_color
+from nsp.colors import lab_to_rgb, rgb_to_lab
+from nsp.engine import paint_canvas
 from nsp.engine.raster import boxed_tiles
-from nsp.painter.images import ssim
-from nsp.style.color import lab_to_rgb, rgb_to_lab
+from nsp.images import ssim
 from nsp.style.losses import sliced_wasserstein
 from nsp.style.measures import SAMPLES, alike_pairs, luminance_ssim, parted
 from nsp.style.recolor import psd_sqrt

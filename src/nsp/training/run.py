@@ -21,11 +21,11 @@ from pytorch_lightning.callbacks import Callback, LearningRateMonitor, ModelChec
 from pytorch_lightning.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 
-from nsp.cli import shielded
 from nsp.errors import RunFailed
-from nsp.io.atomic import atomic_path
-from nsp.io.export import write_json
+from nsp.files import atomic_path
+from nsp.files import write_json
 from nsp.renderers.checkpoint import check_checkpoint
+from nsp.signals import shielded
 from nsp.training.data import StrokeData
 from nsp.training.logger import RunLogger
 from nsp.training.module import RendererModule

@@ -1,4 +1,5 @@
-"""CIE L*a*b* colours (sRGB primaries, D65 white), divided by 100: L in [0, 1], a and b about [−1, 1].
+"""Colours: names and ``#rrggbb`` (:func:`parse_color`, :func:`hex_color`), and CIE L*a*b*
+(sRGB primaries, D65 white), divided by 100: L in [0, 1], a and b about [−1, 1].
 
 Colour mode (paper §3.5) recolours in this space and the style measures compare colours in it:
 Euclidean distances follow perceived colour differences, and L (lightness) depends on the
@@ -6,8 +7,32 @@ luminance alone, so a map that keeps L keeps a painting's luminance structure.
 """
 from __future__ import annotations
 
+import re
+
 import torch
 from torch import Tensor
+
+from nsp.errors import BadInput
+
+_NAMED = {"black": (0.0, 0.0, 0.0), "white": (1.0, 1.0, 1.0)}
+
+
+def parse_color(value: str | tuple | list) -> tuple[float, float, float]:
+    """``black``, ``white``, ``#rrggbb`` or an RGB triple in [0, 1] -> (r, g, b) in [0, 1]."""
+    if isinstance(value, (tuple, list)) and len(value) == 3:
+        return tuple(float(v) for v in value)
+    text = str(value).strip().lower()
+    if text in _NAMED:
+        return _NAMED[text]
+    if re.fullmatch(r"#[0-9a-f]{6}", text):
+        return tuple(int(text[i : i + 2], 16) / 255 for i in (1, 3, 5))
+    raise BadInput(f"background={value} is not a colour; expected black, white or #rrggbb")
+
+
+def hex_color(rgb) -> str:
+    """(r, g, b) in [0, 1] -> ``#rrggbb``."""
+    return "#" + "".join(f"{round(float(c) * 255):02x}" for c in rgb)
+
 
 SRGB_TO_XYZ = torch.tensor([  # linear sRGB -> CIE XYZ, D65
     [0.4124564, 0.3575761, 0.1804375],

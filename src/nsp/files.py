@@ -1,8 +1,9 @@
-"""Files written whole: each is written beside its place and renamed into it, and what a writer that
+"""Files written whole (:func:`write_json`, and :func:`atomic_path` for any format): each is written beside its place and renamed into it, and what a writer that
 was killed (``kill -9``, a power cut) left beside it is removed by the next writer of that place."""
 from __future__ import annotations
 
 import glob
+import json
 import os
 import secrets
 import shutil
@@ -52,3 +53,9 @@ def running(pid: int) -> bool:
         return False
     return True
 
+
+
+def write_json(path: str | Path, data: dict, indent: int = 2) -> None:
+    """Save ``data`` as JSON, atomically."""
+    with atomic_path(path) as temporary:
+        temporary.write_text(json.dumps(data, indent=indent) + "\n")
