@@ -156,6 +156,7 @@ def test_renderer_painting_paints_through_every_checkpoint_and_the_analytic_rend
     assert code == 0, err
     jobs = [json.loads(p.read_text()) for p in sorted(tmp_path.glob("*/metrics.json"))]
     assert len(jobs) == 3 * 2 * 2  # (2 checkpoints + analytic) × 2 photos × 2 budgets
+    assert {"0_dcgan_tape_seed0_chelsea_6", "analytic_tape_astronaut_3"} <= {p.name for p in tmp_path.iterdir()}  # what painted
     trained = {seed: json.loads((trained_sweep / f"{seed}_dcgan_tape_seed{seed}" / "metrics.json").read_text()) for seed in (0, 1)}
     for job in jobs:
         assert job["brush"] == "tape" and 0 < job["ssim"] < 1 and job["strokes"] in (3, 6)

@@ -67,4 +67,12 @@ def job_metrics(job: Path) -> dict:
     return metrics if isinstance(metrics, dict) else {}
 
 
+def renderer_label(renderer: str) -> str:
+    """``${renderer_label:RENDERER}``: a swept renderer as a dir name: its training job's dir name
+    (``3_dcgan_watercolor_seed0``), or ``analytic_BRUSH``; so a painting's dir says what painted it,
+    and a sweep resumed after its training sweep grew keeps each painting with its renderer."""
+    return renderer.replace(":", "_") if renderer.startswith(ANALYTIC) else Path(renderer).parents[1].name
+
+
 OmegaConf.register_new_resolver("trained_renderers", trained_renderers, replace=True)
+OmegaConf.register_new_resolver("renderer_label", renderer_label, replace=True)
