@@ -118,7 +118,9 @@ def plot_painting_study(jobs: list[Job], path: Path) -> None:
         scores = painting_scores(jobs, brush)
         renderers = sorted({r for r, _ in scores if r != "analytic"})
         for (renderer, budget), seeds in sorted(scores.items()):
-            marker, line = shape.setdefault(budget, (next(markers), next(lines)))
+            if budget not in shape:
+                shape[budget] = next(markers), next(lines)
+            marker, line = shape[budget]
             if renderer == "analytic":
                 ax.axhline(seeds[None]["psnr"], color="black", linestyle=line, linewidth=1, label=f"analytic, {budget} strokes")
                 continue
@@ -138,14 +140,14 @@ def plot_painting_study(jobs: list[Job], path: Path) -> None:
 def plot_all(jobs: list[Job], out: Path) -> list[Path]:
     """Every curve's ``<tag>.png`` and the headline's ``final_<metric>.png`` (``/`` as ``_``) in ``out``,
     for a renderer → painting study its ``renderer_vs_painting.png`` instead; returns the files written."""
+    if is_painting_study(jobs):  # its paintings' own curves (loss per step, one a job) would be hundreds of lines
+        plot_painting_study(jobs, out / "renderer_vs_painting.png")
+        return [out / "renderer_vs_painting.png"]
     paths = []
     for tag in curve_tags(jobs):
         paths.append(out / f"{tag.replace('/', '_')}.png")
         plot_tag(jobs, tag, paths[-1])
-    if is_painting_study(jobs):
-        paths.append(out / "renderer_vs_painting.png")
-        plot_painting_study(jobs, paths[-1])
-    elif metric := headline(jobs):
+    if metric := headline(jobs):
         paths.append(out / f"final_{metric.replace('/', '_')}.png")
         plot_bars(jobs, metric, paths[-1])
     return paths
