@@ -14,7 +14,6 @@ shows what the test PSNR measures. docs/img/renderer_grid_32.png:
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import matplotlib
@@ -24,6 +23,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import torch  # noqa: E402
 
 from nsp.brushes import get_brush  # noqa: E402
+from nsp.config import job_metrics  # noqa: E402
 from nsp.renderers.checkpoint import load_renderer  # noqa: E402
 from nsp.training.data import draw, generator  # noqa: E402
 
@@ -36,7 +36,7 @@ def renderers(sweeps: list[Path], seed: int) -> dict[str, dict[str, Path]]:
     found: dict[str, dict[str, Path]] = {}
     for sweep in sweeps:
         for last in sorted(sweep.glob("*/checkpoints/last.ckpt")):
-            metrics = json.loads((last.parents[1] / "metrics.json").read_text())
+            metrics = job_metrics(last.parents[1])
             if metrics.get("status") == "completed" and metrics.get("seed") == seed:
                 found.setdefault(metrics["brush"], {})[metrics["renderer"]] = last
     return {brush: dict(sorted(by.items(), key=lambda item: ORDER.index(item[0]) if item[0] in ORDER else len(ORDER)))
