@@ -236,7 +236,8 @@ def painting_table(jobs: list[Job], brush: str) -> tuple[list[str], list[list]]:
     """A row per renderer (the analytic one last): its test PSNR, then per stroke budget the painting's
     PSNR, SSIM and seconds, each the mean over photos, as mean ± std over training seeds."""
     scores = painting_scores(jobs, brush)
-    renderers = sorted({r for r, _ in scores}, key=lambda r: (r == "analytic", r))
+    order = ["dcgan", "pxlshuffle", "unet", "dual_raster", "dual_shading", "dual", "analytic"]  # the paper's, the untrained last
+    renderers = sorted({r for r, _ in scores}, key=lambda r: (order.index(r) if r in order else len(order) - 1, r))
     budgets = sorted({b for _, b in scores})
     header = ["renderer", "test PSNR", *(f"{name} @{b}" for b in budgets for name in ("PSNR", "SSIM", "seconds"))]
 
