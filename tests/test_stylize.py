@@ -106,7 +106,7 @@ def test_color_mode_recolours_the_canvas_a_translucent_stroke_shows(scene):
     plain = draw(brush, x)
     assert torch.allclose(plain[:, 14, 24], plain[:, 33, 24], atol=1e-6)
     y, canvas = stylize(brush, x, plain, style[0], PaintLoss.from_config(LossConfig()),
-                        partial(torch.optim.RMSprop, lr=0.01), mode="color")
+                        partial(torch.optim.RMSprop, lr=0.01), weight=0.25, steps=0, mode="color")
     apart = [(image[:, 14, 24] - image[:, 33, 24]).norm() for image in (draw(brush, y, canvas), draw(brush, y))]
     assert canvas != "#ffffff" and apart[0] < 0.25 * apart[1]
 
