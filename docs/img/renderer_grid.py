@@ -25,9 +25,9 @@ import torch  # noqa: E402
 from nsp.brushes import get_brush  # noqa: E402
 from nsp.config import job_metrics  # noqa: E402
 from nsp.renderers.checkpoint import load_renderer  # noqa: E402
+from nsp.reporting.tables import renderer_order  # noqa: E402
 from nsp.training.data import draw, generator  # noqa: E402
 
-ORDER = ("dcgan", "pxlshuffle", "unet", "dual_raster", "dual_shading", "dual")
 TEST_STREAM = 2  # StrokeData draws its test strokes from generator(test_seed, 2)
 
 
@@ -39,8 +39,7 @@ def renderers(sweeps: list[Path], seed: int) -> dict[str, dict[str, Path]]:
             metrics = job_metrics(last.parents[1])
             if metrics.get("status") == "completed" and metrics.get("seed") == seed:
                 found.setdefault(metrics["brush"], {})[metrics["renderer"]] = last
-    return {brush: dict(sorted(by.items(), key=lambda item: ORDER.index(item[0]) if item[0] in ORDER else len(ORDER)))
-            for brush, by in found.items()}
+    return {brush: dict(sorted(by.items(), key=lambda item: renderer_order(item[0]))) for brush, by in found.items()}
 
 
 def main() -> None:

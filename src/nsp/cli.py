@@ -41,7 +41,7 @@ from omegaconf import DictConfig, OmegaConf, read_write
 from omegaconf.errors import OmegaConfBaseException
 import yaml
 
-from nsp.config import BRUSH_NAMES, CONF
+from nsp.config import BRUSH_NAMES, CONF, job_metrics
 from nsp.errors import BadInput, RunFailed
 from nsp.signals import interrupt
 from nsp.text import counted
@@ -189,10 +189,8 @@ def _children() -> list[int] | None:
 def _status(path: Path) -> str | None:
     """A job's status as its ``metrics.json`` says (``completed`` where it names none); None where
     the job wrote none or it cannot be read."""
-    try:
-        return json.loads(path.read_text()).get("status", "completed")
-    except (OSError, ValueError, AttributeError):
-        return None
+    metrics = job_metrics(path.parent)
+    return metrics.get("status", "completed") if metrics else None
 
 
 class RunDirs(Callback):

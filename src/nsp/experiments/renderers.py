@@ -27,10 +27,11 @@ def paint_with(cfg: DictConfig, renderer: str, sweep: str) -> dict:
     from nsp.painter.run import paint
     from nsp.renderers.checkpoint import read_checkpoint
 
-    if not renderer.startswith(ANALYTIC) and Path(sweep).resolve() not in Path(renderer).resolve().parents:
+    analytic = renderer.startswith(ANALYTIC)
+    if not analytic and Path(sweep).resolve() not in Path(renderer).resolve().parents:
         raise BadInput(f"task.renderer={renderer} is not a checkpoint of task.sweep={sweep}; give analytic:BRUSH "
                        "or one of its jobs' checkpoints/last.ckpt")
-    if renderer.startswith(ANALYTIC):
+    if analytic:
         brush, trained = renderer[len(ANALYTIC):], {"renderer": "analytic"}
     else:
         brush = read_checkpoint(renderer)["hyper_parameters"]["brush"]
@@ -39,8 +40,8 @@ def paint_with(cfg: DictConfig, renderer: str, sweep: str) -> dict:
     painting = cfg.copy()
     with open_dict(painting):
         painting.brush.name = brush
-        painting.renderer.name = "analytic" if renderer.startswith(ANALYTIC) else "neural"
-        painting.renderer.checkpoint = None if renderer.startswith(ANALYTIC) else renderer
+        painting.renderer.name = "analytic" if analytic else "neural"
+        painting.renderer.checkpoint = None if analytic else renderer
         painting.task = None
     metrics = paint(painting) | {"brush": brush, **trained}
     write_json(Path(cfg.output_dir) / "metrics.json", metrics)

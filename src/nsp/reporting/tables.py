@@ -211,6 +211,14 @@ def chosen_rates(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
     return header, rows
 
 
+RENDERERS = ("dcgan", "pxlshuffle", "unet", "dual_raster", "dual_shading", "dual", "analytic")  # the paper's order, the untrained last
+
+
+def renderer_order(name: str) -> tuple:
+    """Renderers in :data:`RENDERERS`' order; any other before the analytic one, by name."""
+    return (RENDERERS.index(name) if name in RENDERERS else len(RENDERERS) - 1, name)
+
+
 STUDY_RENDERER = "task.renderer"  # experiment=renderer_painting's swept renderer: a checkpoint, or analytic:BRUSH
 
 
@@ -236,8 +244,7 @@ def painting_table(jobs: list[Job], brush: str) -> tuple[list[str], list[list]]:
     """A row per renderer (the analytic one last): its test PSNR, then per stroke budget the painting's
     PSNR, SSIM and seconds, each the mean over photos, as mean ± std over training seeds."""
     scores = painting_scores(jobs, brush)
-    order = ["dcgan", "pxlshuffle", "unet", "dual_raster", "dual_shading", "dual", "analytic"]  # the paper's, the untrained last
-    renderers = sorted({r for r, _ in scores}, key=lambda r: (order.index(r) if r in order else len(order) - 1, r))
+    renderers = sorted({r for r, _ in scores}, key=renderer_order)
     budgets = sorted({b for _, b in scores})
     header = ["renderer", "test PSNR", *(f"{name} @{b}" for b in budgets for name in ("PSNR", "SSIM", "seconds"))]
 
