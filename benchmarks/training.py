@@ -22,7 +22,8 @@ from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
 from nsp.brushes import BRUSHES
-from nsp.training import RendererModule, StrokeData
+from nsp.training.data import StrokeData
+from nsp.training.module import RendererModule
 from nsp.training.schema import register_configs
 
 from doc import best_seconds  # benchmarks/doc.py, beside this script

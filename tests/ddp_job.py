@@ -13,7 +13,7 @@ import pytorch_lightning as L
 import torch.distributed as dist
 from hydra import compose, initialize_config_dir
 
-from nsp.training import train
+from nsp.training.run import train
 from nsp.training.schema import register_configs
 
 CONF = Path(__file__).parents[1] / "conf" / "train"

@@ -127,7 +127,7 @@ def files(tmp_path_factory) -> dict[str, str]:
     (previous / "final.png").write_bytes(b"a painting")
     from test_training import compose_train  # a real checkpoint of dcgan on tape, 32 px
 
-    from nsp.training import train
+    from nsp.training.run import train
 
     train(compose_train(tmp / "trained", "renderer=dcgan", "brush=tape", "trainer.max_steps=1", "data.num_workers=0"))
     ckpt = tmp / "trained" / "checkpoints" / "last.ckpt"

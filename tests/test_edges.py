@@ -172,7 +172,7 @@ def test_sizes_past_the_memory_there_is_are_refused_naming_one_that_fits(module,
 def checkpoint(tmp_path_factory) -> Path:
     from test_training import compose_train
 
-    from nsp.training import train
+    from nsp.training.run import train
 
     out = tmp_path_factory.mktemp("trained")
     train(compose_train(out, *(o for o in TRAIN_BASE if not o.startswith("trainer.enable"))))

@@ -10,7 +10,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 
 import nsp.painter.schema  # noqa: F401  (registers ``paint_schema``)
-from nsp.training import train
+from nsp.training.run import train
 from nsp.training.schema import register_configs
 
 CONF = Path(__file__).parents[1] / "conf"
@@ -21,17 +21,11 @@ TINY_TRAIN = [
 COMPARISON, ABLATION, BRUSHES = "dcgan,pxlshuffle,unet,dual", "dual_raster,dual_shading,dual", "oilpaint,watercolor"
 SWEEPS = {  # experiment: renderers, brushes, seeds
     "renderer_lr": ("dcgan,pxlshuffle,unet,dual,dual_raster,dual_shading", BRUSHES, "0"),
-    "renderer_lr_64": ("dcgan,pxlshuffle,unet,dual,dual_raster,dual_shading", BRUSHES, "0"),
     "renderer_comparison": (COMPARISON, BRUSHES, "0,1,2"),
-    "renderer_comparison_64": (COMPARISON, BRUSHES, "0,1"),
     "renderer_comparison_paper": (COMPARISON, BRUSHES, "0,1,2"),
     "renderer_ablation": (ABLATION, BRUSHES, "0,1,2"),
-    "renderer_ablation_64": (ABLATION, BRUSHES, "0,1"),
     "renderer_ablation_paper": (ABLATION, BRUSHES, "0,1,2"),
 }
-
-
-SHORT_64 = ("renderer_comparison_64", "renderer_ablation_64")  # 500 steps, until the 64-px rates are chosen
 
 
 def compose_with_hydra(root: str, name: str, overrides: list[str]):
@@ -47,10 +41,10 @@ def test_experiment_files_are_the_ones_tested():
                                                                                  "style_heldout"}  # style_*: tests/test_stylize.py
 
 
-@pytest.mark.parametrize("experiment", SWEEPS)
-def test_training_experiment_sweeps_the_papers_renderers_and_runs_two_steps(experiment, tmp_path):
+@pytest.mark.parametrize("experiment, size", [(name, size) for name in SWEEPS for size in ((32, 64) if "paper" not in name else (128,))])
+def test_training_experiment_sweeps_the_papers_renderers_and_runs_two_steps(experiment, size, tmp_path):
     register_configs()
-    cfg = compose_with_hydra("train", "train", [f"experiment={experiment}"])
+    cfg = compose_with_hydra("train", "train", [f"experiment={experiment}"] + ([f"model.size={size}"] if size == 64 else []))
     params = cfg.hydra.sweeper.params
     assert (params.renderer, params.brush, params.seed) == SWEEPS[experiment]
     assert cfg.hydra.sweep.dir.startswith(f"multirun/{experiment}/")
@@ -59,8 +53,8 @@ def test_training_experiment_sweeps_the_papers_renderers_and_runs_two_steps(expe
         assert (cfg.model.size, cfg.data.epoch_size, cfg.trainer.max_epochs, cfg.trainer.accelerator) == (128, 50_000, 400, "gpu")
         assert cfg.model.optimizer.lr == 2e-4  # the paper's, for every renderer
     else:  # one budget for every renderer, in steps, small enough for a CPU
-        size, steps = 64 if experiment.endswith("_64") else 32, 500 if experiment in SHORT_64 else 1500
-        assert (cfg.model.size, cfg.trainer.max_steps, cfg.data.batch_size, cfg.trainer.accelerator) == (size, steps, 64, "cpu")
+        assert (cfg.model.size, cfg.trainer.max_steps, cfg.data.batch_size, cfg.trainer.accelerator) == (size, 1500, 64, "cpu")
+        assert cfg.hydra.sweep.dir.endswith(f"_{size}px")  # a study's dir says its scale
 
     cfg = compose_with_hydra("train", "train", [f"experiment={experiment}", "renderer=dual", "brush=watercolor",
                                                  *TINY_TRAIN, f"output_dir={tmp_path}"])
@@ -77,12 +71,13 @@ def paint_experiment(tmp_path):
     return compose_paint
 
 
+@pytest.mark.parametrize("size", [32, 64])
 @pytest.mark.parametrize("renderer", COMPARISON.split(",") + ["dual_raster", "dual_shading"])
-def test_one_comparison_job_trains_with_its_renderers_own_rate(renderer):
+def test_one_comparison_job_trains_with_its_renderers_own_rate_at_its_size(renderer, size):
     register_configs()
-    cfg = compose_with_hydra("train", "train", ["experiment=renderer_comparison", f"renderer={renderer}"])
-    assert cfg.model.optimizer.lr == cfg.lr_by_renderer[renderer]
-    assert set(cfg.lr_by_renderer) == set(SWEEPS["renderer_lr"][0].split(","))  # every rate comes from the study
+    cfg = compose_with_hydra("train", "train", ["experiment=renderer_comparison", f"renderer={renderer}", f"model.size={size}"])
+    assert cfg.model.optimizer.lr == cfg.lr_by_renderer[f"{size}px"][renderer]
+    assert set(cfg.lr_by_renderer[f"{size}px"]) == set(SWEEPS["renderer_lr"][0].split(","))  # every rate comes from the study
     lr_study = compose_with_hydra("train", "train", ["experiment=renderer_lr", f"renderer={renderer}", "model.optimizer.lr=3e-4"])
     assert lr_study.model.optimizer.lr == 3e-4 and lr_study.trainer.max_steps == cfg.trainer.max_steps
 

@@ -187,7 +187,7 @@ def test_misspelt_keys_and_unknown_brushes_fail_at_compose_time():
 
 def save_checkpoint(path: Path, brush: str) -> Path:
     """A tiny, untrained renderer saved as ``nsp.train`` saves one."""
-    from nsp.training import RendererModule
+    from nsp.training.module import RendererModule
 
     module = RendererModule({"_target_": "nsp.renderers.DualPathway", "size": 32, "channel_mult": 0.125}, brush,
                             optimizer=torch.optim.Adam)
@@ -226,7 +226,7 @@ def test_command_line_errors_are_one_line_with_a_nonzero_exit(tmp_path):
     result = run("-m", "brush=tape,oil", f"hydra.sweep.dir={tmp_path / 'sweep'}", cwd=tmp_path)
     assert result.returncode != 0 and not (tmp_path / "sweep").exists()
     assert result.stderr.strip().splitlines() == [
-        "error: brush=oil: no such brush; expected one of: oilpaint, watercolor, markerpen, tape"
+        "error: brush=oil: no such brush; expected one of: markerpen, oilpaint, tape, watercolor"
     ]
 
 

@@ -10,8 +10,7 @@ import torch
 from nsp.brushes import BRUSHES, get_brush
 from nsp.config import CONF
 from nsp.engine import paint_canvas, render
-from nsp.images import load_image
-from nsp.images import resize
+from nsp.images import load_image, resize
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
 from nsp.painter.faces import Box, find_faces
 from nsp.painter.losses import PaintLoss
@@ -20,6 +19,7 @@ from nsp.painter.painter import Callback, Painter
 from nsp.painter.palette import Palette
 from nsp.painter.placement import largest_errors, place_strokes
 from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
+from nsp.painter.schema import ScheduleConfig
 from nsp.painter.structure import orientation, structure_tensor
 
 
@@ -41,7 +41,9 @@ def painter(brush: str = "tape", renderer=None, **options) -> Painter:
         PaintLoss(l1=1.0, ot=0.0, grid=48, eps=0.01, iters=5),
         partial(RMSprop, lr=0.01),
         generator=torch.Generator().manual_seed(0),
-        **{"steps_per_stroke": 4, "polish": 0, **options},
+        callbacks=options.pop("callbacks", ()),
+        trainable=options.pop("trainable", None),
+        schedule=ScheduleConfig(**{"steps_per_stroke": 4, "polish": 0, **options}),
     )
 
 

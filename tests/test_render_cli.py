@@ -85,7 +85,7 @@ def test_reference_npz_renders_with_brush(tmp_path):
         (["out=x.bmp"], "unknown extension '.bmp', expected one of .png, .svg, .gif"),
         (["strokes=missing.json"], "no such file"),
         (["background=blue"], "background=blue is not a colour"),
-        (["brush=oil"], "brush=oil: no such brush; expected one of: oilpaint"),
+        (["brush=oil"], "brush=oil: no such brush; expected one of: markerpen, oilpaint, tape, watercolor"),
         (["size=0"], "size=0: expected a positive number"),
         (["size=-5"], "size=-5: expected a positive number"),
         (["size=abc"], "could not be converted to Integer"),

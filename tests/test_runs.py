@@ -22,7 +22,7 @@ from nsp.cli import INTERRUPTED, RunDirs, quote_text
 from nsp.io.strokes import load_strokes
 from nsp.painter.schema import PaintConfig  # noqa: F401  (registers ``paint_schema``)
 from nsp.renderers.checkpoint import check_checkpoint
-from nsp.training import train
+from nsp.training.run import train
 
 ROOT = Path(__file__).parents[1]
 TINY_PAINT = ["strokes=8", "work_size=48", "render_size=64", "animation_size=32", "progress=false"]
@@ -199,7 +199,7 @@ def test_a_checkpoint_that_cannot_be_resumed_is_one_line(tmp_path):
 def test_paths_and_colours_are_quoted_for_hydra_where_it_needs_it():
     assert quote_text(["background=#a0522d", "strokes=10", "image=~/my photo (1).jpg"], ["background", "image"]) == [
         "background='#a0522d'", "strokes=10", "image='~/my photo (1).jpg'"]
-    assert quote_text(["-m", "image=a[1].png,b.png"], ["image"]) == ["-m", "image='a[1].png','b.png'"]
+    assert quote_text(["image=a[1].png,b.png"], ["image"], sweep=True) == ["image='a[1].png','b.png'"]
     assert quote_text(["image=it's=é.png"], ["image"]) == ["image='it\\'s=é.png'"]
     assert quote_text(["image=plain.png"], ["image"]) == ["image=plain.png"]
 

@@ -9,8 +9,7 @@ from hydra.errors import HydraException
 from omegaconf import OmegaConf
 
 from nsp.renderers import build
-from nsp.cli import check_overrides
-from nsp.config import CONF
+from nsp.cli import did_you_mean
 from nsp.training.schema import key_tree, register_configs
 
 CONF = Path(__file__).parents[1] / "conf" / "train"
@@ -76,11 +75,16 @@ def test_bad_override_fails_at_compose_time(override, words):
     [("trainer.max_epoch=3", "trainer.max_epochs"), ("data.batch_sise=2", "data.batch_size"), ("renderer.channel_mlt=1", "renderer.channel_mult")],
 )
 def test_misspelt_key_gets_did_you_mean(override, suggestion):
-    assert f"Did you mean '{suggestion}'?" in check_overrides([override], CONF / "train", key_tree())
+    with pytest.raises(HydraException) as error:
+        compose_train(override)
+    assert f"Did you mean '{suggestion}'?" in did_you_mean(str(error.value), key_tree())
 
 
-def test_valid_and_deliberate_overrides_get_no_hint():
-    assert check_overrides(["-m", "renderer=dcgan,dual", "trainer.max_epochs=3", "+trainer.fast_dev_run=true"], CONF / "train", key_tree()) is None
+def test_a_key_near_none_and_a_deliberately_added_key_get_no_hint():
+    with pytest.raises(HydraException) as error:
+        compose_train("zzzz=3")
+    assert did_you_mean(str(error.value), key_tree()) is None
+    assert compose_train("+trainer.fast_dev_run=true").trainer.fast_dev_run is True
 
 
 def test_cli_misspelt_key_is_one_line_and_non_zero_exit():

@@ -16,7 +16,9 @@ from tensorboard.plugins.hparams.plugin_data_pb2 import HParamsPluginData
 from nsp.brushes import get_brush
 from nsp.engine import render
 from nsp.renderers.checkpoint import load_renderer
-from nsp.training import RendererModule, SaveOnInterrupt, StrokeData, train
+from nsp.training.data import StrokeData
+from nsp.training.module import RendererModule
+from nsp.training.run import SaveOnInterrupt, train
 from nsp.training.data import EpochSampler, RandomStrokes
 from nsp.training.schema import register_configs
 

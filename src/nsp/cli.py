@@ -1,5 +1,8 @@
-"""What the commands share around their work: how a bad input ends a run, and how a sweep outlives
-one bad job.
+"""What the commands add to Hydra and Lightning: one-line errors and exit codes, a dir per run,
+sweeps that outlive a bad job and resume, and Ctrl-C and SIGTERM that keep what a run had.
+
+Hydra composes, checks and sweeps each command's config, and prints its ``--help`` (the template in
+``conf/<command>/hydra/help/``); :func:`command` turns Hydra's several-line errors into one line.
 
 A single run that cannot start exits with one line, ``error: …``, and :data:`BAD_INPUT`. In a
 multirun (``-m``) the same job instead records why it failed in its own dir (``metrics.json`` with
@@ -10,8 +13,8 @@ line naming the failed jobs and :data:`FAILED`. ``python -m nsp.report`` lists t
 Ctrl-C and SIGTERM (``timeout``, Slurm, ``docker stop``) both interrupt: the work keeps what it had
 and the command exits with :data:`INTERRUPTED`. :class:`RunDirs` keeps every run in a dir of its own.
 
-``--help`` and a command's first line come before anything imports torch (seconds): this module and
-the entry modules import only Hydra at the top.
+``--help`` and a command's first line come before anything imports torch (seconds): the configs'
+schemas, this module and the entry modules import only Hydra at the top.
 """
 from __future__ import annotations
 
@@ -21,27 +24,26 @@ import json
 import logging
 import os
 import re
+import shutil
 import signal
 import sys
-import textwrap
 import traceback
 from contextlib import suppress
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, NoReturn
+from typing import Any, Callable, Iterable, NoReturn
 
 import hydra
-from hydra._internal.utils import get_args_parser  # Hydra's own command-line parser
+from hydra.core.global_hydra import GlobalHydra
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
-from hydra.errors import HydraException, InstantiationException, OverrideParseException
+from hydra.errors import HydraException, InstantiationException, MissingConfigException, OverrideParseException
 from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf, read_write
 from omegaconf.errors import OmegaConfBaseException
 import yaml
 
-from nsp.config import BRUSH_NAMES, CONF, job_metrics
+from nsp.config import CONF, job_metrics
 from nsp.errors import BadInput, RunFailed
 from nsp.signals import interrupt
 from nsp.text import counted
@@ -290,11 +292,10 @@ def _take(path: Path) -> bool:
         mine.unlink(missing_ok=True)
 
 
-def quote_text(argv: list[str], keys: Iterable[str]) -> list[str]:
+def quote_text(argv: list[str], keys: Iterable[str], sweep: bool = False) -> list[str]:
     """``argv`` with the free-text values of ``keys`` (paths, colours) quoted for Hydra where its
     override grammar cannot read them bare: ``background=#a0522d``, ``image=~/photo (1).jpg``. In a
-    multirun (``-m``) the commas still separate the values of a sweep."""
-    sweep = "-m" in argv or "--multirun" in argv
+    sweep (``-m``) the commas still separate its values."""
     quoted = []
     for arg in argv:
         key, sep, value = arg.partition("=")
@@ -320,142 +321,53 @@ def _unreadable(override: str) -> str | None:
     return None
 
 
-@dataclass
-class Usage:
-    """What ``python -m nsp.<command> --help`` shows, declared by each command: what it does (one
-    line), example command lines (a ``  # note`` may follow each), its main keys (``key=VALUE`` ->
-    one line) and the config groups a user picks from (group -> one line; the options are listed
-    from the command's config dir, the default marked)."""
-
-    summary: str
-    examples: tuple[str, ...]
-    keys: dict[str, str]
-    groups: dict[str, str] = field(default_factory=dict)
+def options(group: str, default: str) -> str:
+    """``${options:GROUP,DEFAULT}`` (the ``--help`` templates): the options of a config group as
+    Hydra finds them (YAML files and generated ones), the one a run gets marked with ``*``."""
+    found = GlobalHydra.instance().config_loader().get_group_options(group)
+    return ", ".join(f"{option}*" if option == default else option for option in found)
 
 
-def help_text(name: str, usage: Usage) -> str:
-    """The ``--help`` of ``python -m nsp.<name>``."""
-    lines = [f"python -m nsp.{name} {example}".strip().split("  # ") for example in usage.examples]
-    column = max((len(line[0]) for line in lines if len(line) > 1), default=0) + 3
-    examples = [f"  {line[0]:<{column}}# {line[1]}" if len(line) > 1 else f"  {line[0]}" for line in lines]
-    width = max(len(key) for key in [*usage.keys, *usage.groups]) + 4
-    keys = [f"  {key:<{width}}{text}" for key, text in usage.keys.items()]
-    groups, defaults = [], _defaults(name)
-    for group, text in usage.groups.items():
-        default, options = defaults.get(group), _options(name, group)
-        listed = ", ".join(f"{option}*" if option == default else option for option in options)
-        groups += [textwrap.fill(listed, 100, initial_indent=f"  {group:<{width}}", subsequent_indent=" " * (width + 2)),
-                   f"  {'':<{width}}{text}"]
-    return "\n".join([
-        f"usage: python -m nsp.{name} [key=value ...] [group=option ...] [-m, to sweep key=a,b]", "",
-        textwrap.fill(usage.summary, 100), "", "examples:", *examples, "", "main keys:", *keys,
-        *(["", "config groups (group=option; * the default):", *groups] if groups else []), "",
-        "Every key and its value: --cfg job. Hydra's own options: --hydra-help.",
-    ])
-
-
-def _options(name: str, group: str) -> list[str]:
-    """The options of one of the command's config groups: its YAML files; ``brush`` is generated."""
-    return list(BRUSH_NAMES) if group == "brush" else sorted(p.stem for p in (CONF / name / group).glob("*.yaml"))
-
-
-def _defaults(name: str) -> dict[str, str | None]:
-    """Group -> the option the command's YAML picks when the command line does not, following the
-    ``override /group: option`` lines of the picked options (a preset's)."""
-    picked = {key.removeprefix("optional ").removeprefix("override "): value
-              for key, value in _choices(CONF / name / f"{name}.yaml")}
-    for group, option in list(picked.items()):
-        for key, value in _choices(CONF / name / group / f"{option}.yaml"):
-            if key.startswith("override /"):
-                picked[key.removeprefix("override /")] = value
-    return picked
-
-
-def _choices(path: Path) -> Iterator[tuple[str, str | None]]:
-    """The ``group: option`` entries of a YAML file's defaults list (none if there is no such file)."""
-    entries = OmegaConf.load(path).get("defaults", []) if path.is_file() else []
-    for entry in entries:
-        if isinstance(entry, DictConfig):
-            yield from entry.items()
-
-
-def sweeping(argv: list[str]) -> bool:
-    """Whether the command line asks for a sweep (``-m``, ``--multirun``, anywhere in it)."""
-    return any(arg in ("-m", "--multirun") for arg in argv)
-
-
-def chosen(argv: list[str], name: str, key: str) -> str | None:
-    """What ``key`` (a plain key or a config group) of ``python -m nsp.<name>`` will be, from the
-    command line or else the command's YAML, told without composing (which imports torch): None
-    where composing could say otherwise (a sweep, an experiment) or neither names it."""
-    if sweeping(argv):
-        return None
-    overrides = _overrides(argv)
-    if overrides is None or any(o.key_or_group == "experiment" for o in overrides):
-        return None
-    for override in overrides:
-        if override.key_or_group == key:
-            return None if override.is_sweep_override() else str(override.value())
-    value = _defaults(name).get(key, OmegaConf.load(CONF / name / f"{name}.yaml").get(key))
-    return None if value is None else str(value)
-
-
-_SHOWN: set[str] = set()  # lines printed before logging began, which the console does not repeat
+OmegaConf.register_new_resolver("options", options, replace=True)
 
 
 class Console(logging.StreamHandler):
     """The on-screen half of a run's log (Hydra's ``job_logging``; ``<command>.log`` in the run dir
-    is the other): each message on ``sys.stdout`` as it is at that moment (a progress bar redirects
-    it to keep its place below), except a line :func:`command` printed before logging began."""
+    is the other): each message on ``sys.stdout`` as it is at that moment, which a progress bar
+    redirects to keep its place below."""
 
     stream = property(lambda self: sys.stdout, lambda self, stream: None)
 
-    def filter(self, record: logging.LogRecord) -> bool:
-        message = record.getMessage()
-        if message in _SHOWN:
-            _SHOWN.discard(message)
-            return False
-        return bool(super().filter(record))
 
+def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], Any], text: Iterable[str] = ()) -> None:
+    """Run ``python -m nsp.<name>``: its Hydra app ``main`` on the config dir ``conf/<name>``.
 
-def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], Any], usage: Usage,
-            text: Iterable[str] = (), opening: Callable[[list[str]], str | None] = lambda argv: None) -> None:
-    """Run ``python -m nsp.<name>``: its Hydra task ``main`` on the config dir ``conf/<name>``.
-
-    ``--help`` prints :func:`help_text` and returns, before anything slow is imported. Then the
-    command line: ``-m`` may stand anywhere in it; ``text`` keys' values are quoted where Hydra
-    needs it; an override Hydra cannot read, or one :func:`check_overrides` objects to (against
-    the structured config ``schema()`` returns), ends with one line and :data:`BAD_INPUT`. The
-    ``opening(argv)`` line is printed once the options are known to exist, before ``schema()``
-    imports the work's modules (seconds). Then SIGTERM is treated as Ctrl-C, and an interrupt the
-    work has already handled (files kept, message printed) ends with :data:`INTERRUPTED`, not a
-    traceback.
+    ``-m`` may stand anywhere in the command line, and ``text`` keys' values are quoted where Hydra
+    needs it. ``schema()`` registers the command's structured config (it imports no torch, so
+    ``--help`` is quick). A value Hydra rejects while composing ends with one line and
+    :data:`BAD_INPUT`. SIGTERM is treated as Ctrl-C, and an interrupt the work has already handled
+    (files kept, message printed) ends with :data:`INTERRUPTED`, not a traceback.
     """
-    conf = CONF / name
     argv = sys.argv[1:]
-    if "-h" in argv or "--help" in argv:
-        print(help_text(name, usage))
-        return
-    sweep = [arg for arg in argv if sweeping([arg])]  # anywhere in the line, as users type it
-    sys.argv[1:] = argv = quote_text(sweep + [arg for arg in argv if arg not in sweep], text)
-    for arg in argv:
-        if "=" in arg and not arg.startswith("-") and (complaint := _unreadable(arg)):
-            fail(f"cannot read {arg!r} ({complaint}); quote its value: key='...'")
-    if message := _unknown_choice(_overrides(argv) or [], conf):
-        fail(message)
-    if all(arg in sweep or not arg.startswith("-") for arg in argv) and (line := opening(argv)):
-        print(line, flush=True)  # --cfg and the like print a config someone may pipe: nothing before it
-        _SHOWN.add(line)
-    if message := check_overrides(argv, conf, schema()):
-        fail(message)
+    sweep = [arg for arg in argv if arg in ("-m", "--multirun")]  # anywhere in the line, as users type it
+    sys.argv[1:] = sweep + quote_text([arg for arg in argv if arg not in sweep], text, bool(sweep))
+    keys = schema()
     signal.signal(signal.SIGTERM, interrupt)
     os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises its errors here instead of printing them over several lines
     try:
-        hydra.main(config_path=str(conf), config_name=name, version_base="1.3")(main)()
+        hydra.main(config_path=str(CONF / name), config_name=name, version_base="1.3")(main)()
     except KeyboardInterrupt:
         sys.exit(INTERRUPTED)
-    except (HydraException, OmegaConfBaseException) as error:  # composing: a value or key the config rejects
-        fail(_one_line(error))
+    except OverrideParseException:
+        arg = next(arg for arg in sys.argv[1:] if "=" in arg and not arg.startswith("-") and _unreadable(arg))
+        fail(f"cannot read {arg!r} ({_unreadable(arg)}); quote its value: key='...'")
+    except MissingConfigException as error:  # group=option with no such option
+        _unmade_sweep()
+        group, _, option = (error.missing_cfg_file or "").rpartition("/")
+        fail(f"{group}={option}: no such {group}; expected one of: {', '.join(error.options)}" if error.options else _one_line(error))
+    except (HydraException, OmegaConfBaseException) as error:  # a value or key the config rejects
+        _unmade_sweep()
+        fail(did_you_mean(str(error), keys) or _one_line(error))
     except ValueError as error:  # Hydra's own flags that do not go together (-m with --cfg)
         if not str(error).startswith("Only one of"):
             raise
@@ -466,16 +378,14 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
         fail(f"{error.strerror}: {error.filename or 'a run file'}; free space or name another dir (hydra.run.dir, hydra.sweep.dir)", FAILED)
 
 
-def finish() -> NoReturn:
-    """End a single run's process now that its work is written and told: torch's teardown at
-    interpreter exit takes 0.6 s more and does nothing a finished run needs. A sweep (``-m``)
-    exits normally, so its launcher's worker processes are shut down."""
-    if sweeping(sys.argv[1:]):
-        sys.exit(0)
-    logging.shutdown()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(0)
+def _unmade_sweep() -> None:
+    """A sweep that Hydra refused while planning its jobs (a bad value among the swept ones) leaves
+    no dir: the one :class:`RunDirs` made for it goes, if it holds nothing but its claim and the plan
+    Hydra wrote (``multirun.yaml``): no job began."""
+    if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN:
+        sweep = Path(HydraConfig.get().sweep.dir)
+        if sweep.is_dir() and {p.name for p in sweep.iterdir()} <= {CLAIM, "multirun.yaml"}:
+            shutil.rmtree(sweep)
 
 
 def _one_line(error: BaseException) -> str:
@@ -490,61 +400,21 @@ def _one_line(error: BaseException) -> str:
     return ": ".join(parts)
 
 
-def check_overrides(argv: list[str], conf: Path, schema: Any) -> str | None:
-    """The one check of every command line before Hydra composes it: one line naming the first
-    ``group=option`` with no such option in the command's config dir ``conf`` (and the valid ones),
-    or the first ``key=value`` whose key is a near miss of one in ``schema`` (the command's
-    structured config; "Did you mean"); None if neither. Hydra's own messages for these span a
-    dozen lines, or suggest nothing.
-    """
-    overrides = _overrides(argv)
-    if overrides is None:
+def did_you_mean(message: str, schema: Any) -> str | None:
+    """For Hydra's "Could not override 'KEY'" where KEY is a near miss of a key of the command's
+    structured config ``schema``: one line with the key meant; None otherwise. Keys under a node the
+    schema leaves open (a config group's own keys) are left to Hydra's message."""
+    if not (match := re.match(r"Could not override '([^']+)'", message)):
         return None
-    return _unknown_choice(overrides, conf) or _misspelt_key(overrides, OmegaConf.to_container(OmegaConf.structured(schema)))
-
-
-def _overrides(argv: list[str]) -> list | None:
-    """The command line's overrides as Hydra parses them; None if it cannot."""
-    try:
-        return OverridesParser.create().parse_overrides(get_args_parser().parse_known_args(argv)[0].overrides)
-    except OverrideParseException:
-        return None
-
-
-def _unknown_choice(overrides: list, conf: Path) -> str | None:
-    for override in overrides:
-        group = override.key_or_group
-        if group == "brush":
-            options = list(BRUSH_NAMES)
-        elif (conf / group).is_dir() and not group.startswith("hydra"):
-            options = sorted(p.stem for p in (conf / group).glob("*.yaml"))
-        else:
-            continue
-        values = override.sweep_string_iterator() if override.is_sweep_override() else [override.value()]
-        for value in values:
-            if value not in options:
-                return f"{group}={value}: no such {group}; expected one of: {', '.join(options)}"
-    return None
-
-
-def _misspelt_key(overrides: list, tree: dict) -> str | None:
-    """Only plain ``key=value`` overrides are checked (``+``/``++``/``~`` deliberately add or remove
-    keys); keys under a node the schema leaves open (a config group's own keys) are Hydra's."""
-    for override in overrides:
-        key = override.key_or_group
-        if override.is_add() or override.is_force_add() or override.is_delete() or key.split(".")[0] == "hydra":
-            continue
-        node = tree
-        for depth, part in enumerate(key.split(".")):
-            if not isinstance(node, dict):
-                break
-            if part not in node:
-                close = difflib.get_close_matches(part, list(node), n=1)
-                if not close:
-                    break
-                where = ".".join(key.split(".")[:depth] + [close[0]])
-                return f"Could not override '{key}': no such key. Did you mean '{where}'?"
-            node = node[part]
+    node, key = OmegaConf.to_container(OmegaConf.structured(schema)), match.group(1)
+    for depth, part in enumerate(key.split(".")):
+        if not isinstance(node, dict):
+            return None
+        if part not in node:
+            close = difflib.get_close_matches(part, list(node), n=1)
+            where = ".".join(key.split(".")[:depth] + close)
+            return f"Could not override '{key}': no such key. Did you mean '{where}'?" if close else None
+        node = node[part]
     return None
 
 

@@ -1,5 +1,6 @@
-"""Config schemas shared by the entry points, registered in Hydra's ConfigStore, and the resolver
-that lists a training sweep's checkpoints for a painting sweep.
+"""Config schemas shared by the entry points, registered in Hydra's ConfigStore, the names the
+configs choose from, and the resolvers of the studies' configs (a per-size key, a training sweep's
+checkpoints for a painting sweep).
 
 The ``brush`` group is generated from :data:`BRUSH_NAMES`, so a new brush needs no YAML and a
 misspelt ``brush=`` fails at compose time listing the valid brushes. Nothing here imports torch:
@@ -21,6 +22,8 @@ CONF = Path(__file__).parent / "conf"  # each command's YAML: conf/paint, conf/t
 
 
 BRUSH_NAMES = ("oilpaint", "watercolor", "markerpen", "tape")  # nsp.brushes.BRUSHES' keys (a test holds them equal)
+BACKBONES = ("vgg19", "random")  # style.backbone: the feature networks of nsp.style.features
+MODES = ("full", "color")  # style.mode: what style transfer changes (nsp.painter.stylize)
 
 
 @dataclass
@@ -74,5 +77,11 @@ def renderer_label(renderer: str) -> str:
     return renderer.replace(":", "_") if renderer.startswith(ANALYTIC) else Path(renderer).parents[1].name
 
 
+def px(size: int) -> str:
+    """``${px:SIZE}``: a size as the key of a per-size table (``32px``; OmegaConf keys are text)."""
+    return f"{size}px"
+
+
+OmegaConf.register_new_resolver("px", px, replace=True)
 OmegaConf.register_new_resolver("trained_renderers", trained_renderers, replace=True)
 OmegaConf.register_new_resolver("renderer_label", renderer_label, replace=True)

@@ -13,54 +13,16 @@ from pathlib import Path
 
 from omegaconf import MISSING, DictConfig
 
-from nsp.cli import INTERRUPTED, Usage, chosen, command, finish, run_job
+from nsp.cli import INTERRUPTED, command, run_job
 from nsp.text import counted
 
 log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.log
 
 TEXT = ("image", "background", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
 
-USAGE = Usage(
-    summary="Paint a photo with vector brush strokes; writes final.png, painting.svg, animation.gif, "
-            "strokes.json, metrics.json and TensorBoard logs into the run dir.",
-    examples=(
-        "  # the astronaut, 500 oilpaint strokes",
-        "image=photo.jpg brush=watercolor strokes=1000",
-        "image=photo.jpg style.image=starry.jpg  # in the style of a painting",
-        "-m image=a.jpg,b.jpg  # several images, one process per core",
-    ),
-    keys={
-        "image=PATH": "a PNG/JPEG, or astronaut | chelsea | coffee | rocket | flower | china",
-        "strokes=N": "how many strokes (500)",
-        "background=COLOUR": "the canvas: white, black or #rrggbb",
-        "render_size=PX": "long side of final.png and painting.svg (1024)",
-        "animation_size=PX": "long side of animation.gif (512)",
-        "animation_frames=N": "at most N frames, the same strokes each (100); null: a frame per stroke",
-        "style.image=PATH": "paint in the style of this image",
-        "seed=N": "the one source of randomness (0)",
-        "device=NAME": "cpu, cuda, cuda:N or auto (cpu)",
-        "hydra.run.dir=DIR": "where the files go (outputs/paint/<time>_<brush>)",
-    },
-    groups={
-        "brush": "the brush the strokes are painted with",
-        "renderer": "the vector engine itself, or a network from nsp.train (renderer.checkpoint=PATH)",
-        "loss": "what the strokes are fitted by: L1, or L1 + optimal transport (the paper's)",
-        "schedule": "blocks from coarse to fine, or a single level",
-        "optimizer": "the strokes' optimizer",
-        "experiment": "a paper experiment instead of a painting (run with -m)",
-    },
-)
-
-
-def opening(argv: list[str]) -> str:
-    """The first line of a run, shown before the work's modules load."""
-    image, strokes, brush = (chosen(argv, "paint", key) for key in ("image", "strokes", "brush"))
-    if None in (image, strokes, brush):
-        return f"starting {' '.join(['python -m nsp.paint', *argv])}…"
-    return f"painting {image} with {counted(strokes, brush + ' stroke')}…"
-
-
 def main(cfg: DictConfig) -> float | None:
+    if cfg.task is None:  # the first line, before the work's modules load (seconds)
+        log.info(f"painting {cfg.image} with {counted(cfg.strokes, cfg.brush.name + ' stroke')}…")
     import torch
     from hydra.utils import instantiate
 
@@ -93,9 +55,8 @@ def schema() -> object:
 
 def cli() -> None:
     """The command line: ``python -m nsp.paint``."""
-    command("paint", main, schema, USAGE, text=TEXT, opening=opening)
+    command("paint", main, schema, text=TEXT)
 
 
 if __name__ == "__main__":
     cli()
-    finish()

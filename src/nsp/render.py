@@ -12,30 +12,10 @@ from typing import Any, Optional
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, OmegaConf
 
-from nsp.cli import Usage, chosen, command, fail, finish
+from nsp.cli import command, fail
 from nsp.errors import BadInput
 
 TEXT = ("strokes", "out", "background")  # free text: paths, ``#rrggbb``
-
-USAGE = Usage(
-    summary="Draw a stroke file (nsp's strokes.json, or a reference .npz with brush=) as a PNG, an SVG "
-            "or an animated GIF of the strokes in order, by out='s extension.",
-    examples=(
-        "strokes=outputs/paint/<run>/strokes.json size=2048 out=big.png",
-        "strokes=outputs/paint/<run>/strokes.json out=painting.svg",
-        "strokes=outputs/paint/<run>/strokes.json size=512 out=animation.gif",
-        "strokes=reference.npz brush=oilpaint background=black out=ref.png",
-    ),
-    keys={
-        "strokes=PATH": "the stroke file (required)",
-        "out=PATH": "what to write: .png, .svg or .gif (required)",
-        "size=PX": "the long side (512)",
-        "background=COLOUR": "white, black or #rrggbb (the stroke file's own)",
-        "compile=BOOL": "shade on the compiled engine: true, false, or null: where it pays (null)",
-        "device=NAME": "cpu, cuda, cuda:N or auto (cpu)",
-    },
-    groups={"brush": "the brush of a reference .npz file; nsp's JSON names its own"},
-)
 
 
 @dataclass
@@ -61,9 +41,6 @@ def render(cfg: DictConfig) -> Path:
     from nsp.io.export import EXTENSIONS, frame_ends, write_painting
     from nsp.io.strokes import load_strokes
 
-    for key in ("strokes", "out"):
-        if OmegaConf.is_missing(cfg, key):
-            raise BadInput(f"{key}= is required (strokes=PATH out=PATH.png|.svg|.gif)")
     out = Path(cfg.out)
     suffix = out.suffix.lower()
     if out.is_dir():
@@ -96,6 +73,10 @@ def render(cfg: DictConfig) -> Path:
 def main(cfg: DictConfig) -> None:
     start = time.perf_counter()
     try:
+        for key in ("strokes", "out"):
+            if OmegaConf.is_missing(cfg, key):
+                raise BadInput(f"{key}= is required (strokes=PATH out=PATH.png|.svg|.gif)")
+        print(f"rendering {cfg.strokes} as {cfg.out}…", flush=True)  # the first line, before the engine loads
         out = render(cfg)
         print(f"wrote {out} in {time.perf_counter() - start:.1f} s")
     except BadInput as err:
@@ -103,12 +84,6 @@ def main(cfg: DictConfig) -> None:
     except KeyboardInterrupt:
         print(f"interrupted: nothing written to {cfg.out}", file=sys.stderr)
         raise
-
-
-def opening(argv: list[str]) -> str | None:
-    """The first line, shown before the engine loads."""
-    strokes, out = chosen(argv, "render", "strokes"), chosen(argv, "render", "out")
-    return None if None in (strokes, out) else f"rendering {strokes} as {out}…"
 
 
 def schema() -> RenderConfig:
@@ -120,9 +95,8 @@ def schema() -> RenderConfig:
 
 def cli() -> None:
     """The command line: ``python -m nsp.render``."""
-    command("render", main, schema, USAGE, text=TEXT, opening=opening)
+    command("render", main, schema, text=TEXT)
 
 
 if __name__ == "__main__":
     cli()
-    finish()

@@ -10,59 +10,19 @@ import logging
 import sys
 from pathlib import Path
 
+from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from nsp.cli import INTERRUPTED, Usage, chosen, command, run_job
+from nsp.cli import INTERRUPTED, command, run_job
 
 log = logging.getLogger("nsp.train")  # Hydra sends it to the console and train.log
 
-USAGE = Usage(
-    summary="Train a neural stroke renderer on strokes the vector engine draws; writes metrics.json, "
-            "checkpoints/ (best.ckpt, last.ckpt) and TensorBoard logs into the run dir.",
-    examples=(
-        "  # dual on watercolor, the CPU preset (minutes)",
-        "renderer=unet brush=oilpaint",
-        "preset=paper trainer=gpu  # the paper's scale, on one GPU",
-        "-m experiment=renderer_comparison  # a saved study; then python -m nsp.report",
-    ),
-    keys={
-        "trainer.max_steps=N": "how long to train",
-        "model.size=PX": "the renderer's output side: 32, 64 or 128",
-        "model.channel_mult=X": "network width, × the paper's",
-        "data.batch_size=N": "strokes per step",
-        "ckpt_path=PATH": "resume from a checkpoint (its own dir: continues in place)",
-        "seed=N": "initialisation and training strokes",
-        "hydra.run.dir=DIR": "where the files go (outputs/train/<time>_<renderer>_<brush>)",
-    },
-    groups={
-        "renderer": "the network",
-        "brush": "the brush whose strokes it learns",
-        "preset": "the scale: cpu (minutes) or paper",
-        "trainer": "where it runs",
-        "lr_schedule": "the learning-rate schedule",
-        "experiment": "a saved study (run with -m)",
-    },
-)
-
-
-def starting(renderer: str, brush: str, preset: str) -> str:
-    """What a run says first, on screen before Lightning and torch load, and in train.log."""
-    return f"training renderer {renderer} on {brush} strokes, preset {preset}…"
-
-
-def opening(argv: list[str]) -> str:
-    """The first line of a run, from the command line alone."""
-    choices = [chosen(argv, "train", key) for key in ("renderer", "brush", "preset")]
-    return f"starting {' '.join(['python -m nsp.train', *argv])}…" if None in choices else starting(*choices)
-
 
 def main(cfg: DictConfig) -> float | None:
-    from hydra.core.hydra_config import HydraConfig
+    choices = HydraConfig.get().runtime.choices  # the first line, before Lightning and torch load (seconds)
+    log.info(f"training renderer {choices.renderer} on {choices.brush} strokes, preset {choices.preset}…")
+    from nsp.training.run import train
 
-    from nsp.training import train
-
-    choices = HydraConfig.get().runtime.choices
-    log.info(starting(choices.renderer, choices.brush, choices.preset))  # shown once: the opening line was this
     try:
         metrics = run_job(cfg, train)  # a bad value the schema cannot type (e.g. model.size=48): one line, no traceback
     except KeyboardInterrupt:
@@ -89,8 +49,7 @@ def schema() -> object:
 
 def cli() -> None:
     """The command line: ``python -m nsp.train``."""
-    command("train", main, schema, USAGE, opening=opening,
-            text=("ckpt_path", "brush.texture", "hydra.run.dir", "hydra.sweep.dir"))
+    command("train", main, schema, text=("ckpt_path", "brush.texture", "hydra.run.dir", "hydra.sweep.dir"))
 
 
 if __name__ == "__main__":

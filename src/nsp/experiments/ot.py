@@ -25,6 +25,7 @@ from torchvision.utils import make_grid
 
 from nsp.brushes import Brush, get_brush
 from nsp.colors import parse_color
+from nsp.engine.device import resolve_device
 from nsp.engine import composite, paint_canvas, render
 from nsp.errors import BadInput
 from nsp.files import write_json
@@ -32,21 +33,18 @@ from nsp.images import psnr
 from nsp.io.export import write_png
 from nsp.painter.losses import PaintLoss
 from nsp.painter.optimize import optimize_strokes
-from nsp.painter.renderer import AnalyticRenderer, load_neural
+from nsp.painter.renderer import build_renderer
 
 ON_TARGET = 0.05  # a pushed stroke whose centre ends this close to its target's (canvas widths) converged
 
 
-def setup(cfg: DictConfig) -> tuple[Brush, object, PaintLoss, Tensor]:
-    """The brush, the painter's renderer and loss, and the blank canvas colour (3,) of ``cfg``."""
-    brush = get_brush(cfg.brush.name, cfg.brush.texture)
-    if cfg.renderer.name == "analytic":
-        renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
-    else:
-        renderer = load_neural(cfg.renderer.checkpoint, brush)
+def setup(cfg: DictConfig) -> tuple[Brush, object, PaintLoss, Tensor, torch.device]:
+    """The brush, the painter's renderer (on the device) and loss, the blank canvas colour (3,) and
+    the device of ``cfg``. The seeded strokes and targets are drawn on the CPU, then moved there."""
+    brush, device = get_brush(cfg.brush.name, cfg.brush.texture), resolve_device(cfg.device)
     background = parse_color(cfg.background)
     loss = PaintLoss.from_config(cfg.loss, background)
-    return brush, renderer, loss, torch.tensor(background)
+    return brush, build_renderer(cfg.renderer, brush, device), loss, torch.tensor(background), device
 
 
 def centre(alpha: Tensor) -> Tensor:
@@ -146,10 +144,11 @@ def push(cfg: DictConfig, trials: int = 8, steps: int = 150, gap: float = 0.45,
     start_time = time.perf_counter()
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    brush, renderer, loss, background = setup(cfg)
+    brush, renderer, loss, background, device = setup(cfg)
     side = renderer.resolution(cfg.work_size)
     generator = torch.Generator().manual_seed(cfg.seed)
     goal, start = push_pairs(brush, trials, side, gap, tuple(size), background, generator)
+    goal, start, background = goal.to(device), start.to(device), background.to(device)
     blank = background[:, None, None].expand(trials, 3, side, side)
     fg, alpha = render(brush, goal, side)
     target = alpha * fg + (1 - alpha) * blank  # drawn by the engine, as a photo would be
@@ -235,7 +234,7 @@ def digits(cfg: DictConfig, count: int = 50, steps: int = 300, length: float = 0
     start_time = time.perf_counter()
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    brush, renderer, loss, background = setup(cfg)
+    brush, renderer, loss, background, device = setup(cfg)
     side = renderer.resolution(cfg.work_size)
     mask, target = digit_targets(count, side, background)
     k = cfg.strokes
@@ -243,6 +242,7 @@ def digits(cfg: DictConfig, count: int = 50, steps: int = 300, length: float = 0
     x0[:, [i for i, kind in enumerate(brush.kinds) if kind == "alpha"]] = 1.0
     ink = [i for i, kind in enumerate(brush.kinds) if kind == "color"]
     x0[:, ink] = (1 - background).repeat(len(ink) // 3)
+    mask, target, x0, background = mask.to(device), target.to(device), x0.to(device), background.to(device)
     blank = background[:, None, None].expand(count, 3, side, side)
 
     def draw(x: Tensor) -> Tensor:

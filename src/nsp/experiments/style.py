@@ -32,7 +32,8 @@ from nsp.io.export import write_png
 from nsp.painter.callbacks import ProgressBar
 from nsp.painter.painter import Painter
 from nsp.painter.run import prepare
-from nsp.painter.stylize import MODES, stylize
+from nsp.config import MODES
+from nsp.painter.stylize import stylize
 from nsp.style import StyleLoss
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
 from nsp.style.refine import color_basis, refine_colors

@@ -31,8 +31,8 @@ from nsp.painter.faces import Box
 from nsp.painter.optimize import Optimizer, optimize_strokes
 from nsp.painter.palette import Palette
 from nsp.painter.placement import place_strokes
+from nsp.painter.schema import ScheduleConfig
 
-SPLITS = ("uniform", "error")
 LENGTHS = (0.5, 1.0, 2.0)  # a candidate stroke per length at each error peak, × the reach of the colour there
 FACE_GRID = 4  # a face level has at least this many blocks along the largest face (eyes, nose, mouth: 2–4 px strokes)
 
@@ -59,24 +59,8 @@ class Painter:
             with ``renderer.resolution(side) -> size`` (see :mod:`nsp.painter.renderer`).
         loss: ``loss(canvas, target) -> {"total": scalar, ...}`` on (B, 3, h, w) blocks.
         optimizer: builds the optimizer of a list of parameters (e.g. a ``_partial_`` RMSprop).
-        grids: m of each level, in order; ``None``: chosen from ``max_per_block`` and ``growth``.
-        max_per_block: the most strokes a block gets when the levels are chosen here.
-        growth: how much finer each chosen level's grid is than the last (1: m = 1, 2, 3, …, the
-            paper's; 1.4: 1, 2, 3, 5, 7, 10, …, fewer coarse levels that later ones repaint).
-        overlap: how much larger than its grid cell a block is (fraction).
-        steps_per_stroke: optimizer steps after each stroke joins the active set (paper: 20).
-        polish: optimizer steps of each level's strokes together once all are placed (paper: 0).
-        split: how a level's strokes are shared among its blocks: ``"error"``, in proportion to
-            the error left in each (at most ``crowd`` times the mean); ``"uniform"``, equally (paper).
-        crowd: the most strokes a block takes under ``split="error"``, as a multiple of the mean.
-        init_size: range of new strokes' lengths, as fractions of the block width.
-        candidates: how many regions of large error each new stroke is tried at (a few lengths
-            each); the one that lowers the block's error most starts. 1: the largest error only.
-        detail_side: with a ``detail`` picture (:meth:`paint`), the last level works on a finer
-            canvas, up to the picture's size, until its blocks are this many pixels a side; 0: never.
-        face_share: with ``faces`` (:meth:`paint`), this share of the strokes is painted last, in a
-            level of blocks over the faces alone (at least ``FACE_GRID`` along a face); 0: none.
-        palette: keep each stroke's colours within the target's around it (see :class:`Palette`).
+        schedule: the levels and how each stroke is added and optimized (:class:`ScheduleConfig`,
+            whose defaults are the command's).
         background: canvas colour.
         generator: the only source of randomness (new strokes' sizes, angles, directions).
         callbacks: see :class:`Callback`.
@@ -91,37 +75,15 @@ class Painter:
         loss: Callable[[Tensor, Tensor], dict[str, Tensor]],
         optimizer: Callable[[list[Tensor]], Optimizer],
         *,
-        grids: Sequence[int] | None = None,
-        max_per_block: int = 6,
-        growth: float = 1.4,
-        overlap: float = 0.0,
-        steps_per_stroke: int = 8,
-        polish: int = 4,
-        split: str = "error",
-        crowd: float = 2.0,
-        init_size: tuple[float, float] = (0.1, 0.3),
-        candidates: int = 4,
-        detail_side: int = 32,
-        face_share: float = 0.08,
-        palette: bool = True,
+        schedule: ScheduleConfig | None = None,
         background: str = "white",
         generator: torch.Generator | None = None,
         callbacks: Sequence[Callback] = (),
         trainable: Sequence[int] | None = None,
     ):
         self.brush, self.renderer, self.loss, self.optimizer = brush, renderer, loss, optimizer
-        self.grids, self.max_per_block, self.growth, self.overlap = grids, max_per_block, growth, overlap
-        if split not in SPLITS:
-            raise ValueError(f"split={split!r}: expected one of {', '.join(SPLITS)}")
-        if growth < 1 or crowd < 1 or candidates < 1:
-            raise ValueError(f"growth={growth}, crowd={crowd}, candidates={candidates}: expected at least 1")
-        if detail_side < 0 or polish < 0:
-            raise ValueError(f"detail_side={detail_side}, polish={polish}: expected ≥ 0")
-        if not 0 <= face_share < 1:
-            raise ValueError(f"face_share={face_share}: expected a share in [0, 1)")
-        self.split, self.crowd, self.palette, self.candidates = split, crowd, palette, candidates
-        self.detail_side, self.polish, self.face_share = detail_side, polish, face_share
-        self.steps_per_stroke, self.init_size, self.background = steps_per_stroke, tuple(init_size), background
+        self.schedule = schedule if schedule is not None else ScheduleConfig()  # checked by the command (nsp.painter.run)
+        self.background = background
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         self.callbacks = list(callbacks)
         self.frozen = [] if trainable is None else [i for i in range(brush.d) if i not in set(trainable)]
@@ -135,17 +97,18 @@ class Painter:
         ``finest``: the longest side the last levels' canvas may have (see ``detail_side``);
         ``faces``: boxes that get a level of their own, last (see ``face_share``); the other levels
         are those of the strokes left."""
-        on_faces = round(self.face_share * strokes) if faces else 0
+        s = self.schedule
+        on_faces = round(s.face_share * strokes) if faces else 0
         strokes -= on_faces
-        grids = list(self.grids) if self.grids else progressive_grids(strokes, height, width, self.max_per_block, self.growth)
+        grids = list(s.grids) if s.grids else progressive_grids(strokes, height, width, s.max_per_block, s.growth)
         blocks = [rows * cols for rows, cols in (grid_shape(m, height, width) for m in grids)]
-        levels = [Level.grid(m, height, width, self.overlap, n) for m, n in zip(grids, distribute(strokes, blocks))]
+        levels = [Level.grid(m, height, width, s.overlap, n) for m, n in zip(grids, distribute(strokes, blocks))]
         last, count = grids[-1], int(levels[-1].counts.sum())
-        levels[-1] = self._detailed(lambda h, w: Level.grid(last, h, w, self.overlap,
+        levels[-1] = self._detailed(lambda h, w: Level.grid(last, h, w, s.overlap,
                                                             distribute(count, [math.prod(grid_shape(last, h, w))])[0]),
                                     height, width, finest)
         if on_faces:
-            grid = max(FACE_GRID, math.ceil(math.sqrt(on_faces / self.max_per_block)))
+            grid = max(FACE_GRID, math.ceil(math.sqrt(on_faces / s.max_per_block)))
             levels.append(self._detailed(lambda h, w: Level.regions(faces, grid, h, w, on_faces), height, width, finest))
         return levels
 
@@ -154,7 +117,7 @@ class Painter:
         where its blocks would be under ``detail_side`` pixels; its strokes are shared among its
         blocks there again."""
         coarse = level(height, width)
-        scale = 0.0 if finest is None else min(self.detail_side / coarse.side, finest / max(height, width))
+        scale = 0.0 if finest is None else min(self.schedule.detail_side / coarse.side, finest / max(height, width))
         return level(*long_side(height, width, round(max(height, width) * scale))) if scale > 1 else coarse
 
     def paint(self, target: Tensor, strokes: int, detail: Tensor | None = None, faces: Sequence[Box] = ()) -> Tensor:
@@ -200,13 +163,13 @@ class Painter:
         goal = level.crop(target, size)  # (B, 3, s, s)
         under = level.crop(canvas, size)
         weights = level.weights(size, target)  # padding is scored as if painted right
-        if self.split == "error":
+        if self.schedule.split == "error":
             level = self._by_error(level, under, goal, weights)
         depth = int(level.counts.max())
         exists = torch.arange(depth, device="cpu")[None] < level.counts[:, None]  # (B, K), as level.counts: the CPU
         x = torch.zeros(level.blocks, depth, self.brush.d, device=target.device, requires_grad=True)
         optimizer = self.optimizer([x])
-        palette = Palette(goal, max(5, round(self.init_size[1] * size))) if self.palette else None  # a long stroke wide
+        palette = Palette(goal, max(5, round(self.schedule.init_size[1] * size))) if self.schedule.palette else None  # a long stroke wide
         painted = torch.zeros_like(exists)
         self._active = (level, x, painted, size)
         current = under.clone()
@@ -236,21 +199,21 @@ class Painter:
             painted[:, k] = exists[:, k]
             for callback in self.callbacks:
                 callback.on_strokes(self, len(live))
-            if not self.steps_per_stroke:
+            if not self.schedule.steps_per_stroke:
                 with torch.no_grad():
                     current[live] = self._blend(x[live, : k + 1], under[live], goal[live], weights[live], size)
-            optimize(live, k + 1, self.steps_per_stroke)
+            optimize(live, k + 1, self.schedule.steps_per_stroke)
         live = exists.any(1).nonzero()[:, 0]
-        optimize(live, depth, self.polish, exists[live].to(x.device))  # the whole level together
+        optimize(live, depth, self.schedule.polish, exists[live].to(x.device))  # the whole level together
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
 
     def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, size: int) -> Tensor:
         """A new stroke for each block (B, 3, s, s each; weights (B, 1, s, s)): (B, d), the candidate
         that, rendered once on the canvas, leaves the least error."""
-        if self.candidates == 1:
-            return place_strokes(self.brush, canvas, goal, weights, self.init_size, self.generator)
-        tried = place_strokes(self.brush, canvas, goal, weights, self.init_size, self.generator, self.candidates,
-                              LENGTHS)  # (B, C, d)
+        s = self.schedule
+        if s.candidates == 1:
+            return place_strokes(self.brush, canvas, goal, weights, s.init_size, self.generator)
+        tried = place_strokes(self.brush, canvas, goal, weights, s.init_size, self.generator, s.candidates, LENGTHS)  # (B, C, d)
         blocks, count, d = tried.shape
         fg, alpha = self.renderer(tried.reshape(-1, d), size)
         fg, alpha = fg.view(blocks, count, 3, size, size), alpha.view(blocks, count, 1, size, size)
@@ -263,7 +226,7 @@ class Painter:
         (B, 3, s, s each; weights (B, 1, s, s)), at most ``crowd`` times the mean per block."""
         error = ((under - goal).abs().sum(1, keepdim=True) * weights).sum((1, 2, 3)) / weights.sum((1, 2, 3))
         strokes = int(level.counts.sum())
-        cap = max(1, math.ceil(self.crowd * strokes / level.blocks))
+        cap = max(1, math.ceil(self.schedule.crowd * strokes / level.blocks))
         return dataclasses.replace(level, counts=share(strokes, error, cap))
 
     def _blend(self, x: Tensor, under: Tensor, goal: Tensor, weights: Tensor, size: int,

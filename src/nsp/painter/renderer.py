@@ -7,6 +7,7 @@ network trained by ``python -m nsp.train``, the paper's choice: one fixed output
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import torch
 from torch import Tensor, nn
@@ -63,3 +64,13 @@ def load_neural(path: str | Path, brush: Brush, device: torch.device | str = "cp
             f"use brush={trained_for} or a checkpoint from `python -m nsp.train brush={brush.name}`"
         )
     return NeuralRenderer(network.to(device), size)
+
+
+def build_renderer(cfg: Any, brush: Brush, device: torch.device | str = "cpu") -> AnalyticRenderer | NeuralRenderer:
+    """The painter's renderer a config's ``renderer`` node (nsp.painter.schema.RendererConfig) names:
+    the analytic one, or the network of its checkpoint on ``device``."""
+    if cfg.name == "analytic":
+        return AnalyticRenderer(brush, cfg.softness, cfg.block_size)
+    if cfg.checkpoint is None:
+        raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
+    return load_neural(cfg.checkpoint, brush, device)

@@ -30,7 +30,7 @@ from nsp.painter.faces import find_faces
 from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, write_vector_files
 from nsp.painter.painter import Painter
-from nsp.painter.renderer import AnalyticRenderer, load_neural
+from nsp.painter.renderer import build_renderer
 from nsp.painter.stylize import stylize
 from nsp.signals import shielded
 from nsp.style import MIN_SIDE, StyleLoss, WeightsNotFound
@@ -90,12 +90,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
         check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size",
                      frames=len(frame_ends(cfg.strokes, cfg.animation_frames)))
-        if cfg.renderer.name == "analytic":
-            renderer = AnalyticRenderer(brush, cfg.renderer.softness, cfg.renderer.block_size)
-        elif cfg.renderer.checkpoint is None:
-            raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
-        else:
-            renderer = load_neural(cfg.renderer.checkpoint, brush, device)
+        renderer = build_renderer(cfg.renderer, brush, device)
         if cfg.style.steps < 0 or cfg.style.size <= 0:
             raise BadInput(f"style.steps={cfg.style.steps}, style.size={cfg.style.size}: expected steps ≥ 0, size > 0")
         if cfg.style.weight < 0:
@@ -118,11 +113,7 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None
     except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None
     loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.background))
-    painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), grids=s.grids, max_per_block=s.max_per_block,
-                      growth=s.growth, overlap=s.overlap, split=str(s.split), crowd=s.crowd,
-                      steps_per_stroke=s.steps_per_stroke, polish=s.polish, init_size=s.init_size,
-                      candidates=s.candidates, detail_side=s.detail_side, face_share=s.face_share,
-                      palette=s.palette,
+    painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), schedule=OmegaConf.to_object(cfg.schedule),
                       background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
     return painter, photo.to(device), image, style
 
@@ -170,14 +161,13 @@ def paint(cfg: DictConfig) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
     shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
-    log.info(f"painting {cfg.image} with {counted(cfg.strokes, painter.brush.name + ' stroke')}…")
     phases = []  # what took how long, as the bars showed it
     with SummaryWriter(out / "tensorboard") as writer:
         board = TensorBoard(writer, target)
         with ProgressBar(cfg.strokes, cfg.progress) as bar:  # the painting's time: its face search too
             painter.callbacks += [board, bar]
             try:
-                faces = find_faces(target) if round(painter.face_share * cfg.strokes) else []
+                faces = find_faces(target) if round(painter.schedule.face_share * cfg.strokes) else []
                 strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
             except BaseException:
                 with shielded():

@@ -9,15 +9,12 @@ from typing import Any, Optional
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
-from nsp.config import BrushConfig  # also registers the ``brush`` group
-from nsp.painter.painter import SPLITS
-from nsp.painter.stylize import MODES
-from nsp.style import BACKBONES
+from nsp.config import BACKBONES, MODES, BrushConfig  # also registers the ``brush`` group
 
 # Typed choices: Hydra rejects any other value when it composes, listing these.
 StyleMode = StrEnum("StyleMode", {mode: mode for mode in MODES})
 Backbone = StrEnum("Backbone", {name: name for name in BACKBONES})
-Split = StrEnum("Split", {split: split for split in SPLITS})
+Split = StrEnum("Split", {"uniform": "uniform", "error": "error"})  # how a level's strokes are shared among its blocks
 RendererName = StrEnum("RendererName", {name: name for name in ("analytic", "neural")})
 
 

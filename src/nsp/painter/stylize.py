@@ -25,15 +25,14 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.colors import hex_color
-from nsp.colors import parse_color
+from nsp.colors import hex_color, parse_color
+from nsp.config import MODES
 from nsp.engine import paint_canvas
 from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
 from nsp.style.measures import SAMPLES, alike_pairs, color_distance, luminance_ssim, parted
 from nsp.style.refine import refine_colors
 
-MODES = ("full", "color")
 STRUCTURE = 0.2  # the share of luminance SSIM the recolouring may give up, per unit of β_sty
 STEPS = 10  # the shares of the refined map tried, back toward the start: 1, 1 − 1/STEPS, …, 1/STEPS
 COHERENT = 0.048  # the most colours alike in the painting may part on average (RGB): nsp.style.measures.coherence

@@ -1,12 +1,12 @@
 """Reads the jobs of a Hydra multirun: overrides, final metrics, status and TensorBoard curves."""
 from __future__ import annotations
 
+import itertools
 import json
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from hydra._internal.core_plugins.basic_sweeper import BasicSweeper  # the job order Hydra's sweepers plan
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import OmegaConf
@@ -142,14 +142,20 @@ def collect(sweep: Path) -> list[Job]:
 
 def planned_jobs(sweep: Path) -> list[list[str]]:
     """Each job's overrides (``key=value``), by job number, as the multirun planned them in its
-    ``multirun.yaml``, so jobs of an aborted sweep that never began are listed too; [] if unknown."""
+    ``multirun.yaml``, so jobs of an aborted sweep that never began are listed too; [] if unknown.
+    The order is Hydra's basic sweeper's: every combination, the last key varying fastest, a key
+    of the command line taking the place of the sweeper's ``params`` entry it overrides."""
     try:
         config = OmegaConf.load(sweep / "multirun.yaml")
         params = [f"{key}={value}" for key, value in (config.hydra.sweeper.get("params") or {}).items()]
-        overrides = OverridesParser.create().parse_overrides(params + list(config.hydra.overrides.task))
-        return [job for batch in BasicSweeper.split_arguments(overrides, None) for job in batch]
+        values = {}
+        for override in OverridesParser.create().parse_overrides(params + list(config.hydra.overrides.task)):
+            key = override.get_key_element()
+            swept = override.sweep_string_iterator() if override.is_sweep_override() else [override.get_value_element_as_str()]
+            values[key] = [f"{key}={value}" for value in swept]
     except (OSError, OmegaConfBaseException, HydraException):
         return []
+    return [list(job) for job in itertools.product(*values.values())]
 
 
 def latest_sweep(root: Path) -> Path:

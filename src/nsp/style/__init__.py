@@ -2,7 +2,6 @@
 (Gram matrices of a feature network) and colours (sliced Wasserstein), the recolouring shared by
 a whole painting, and the measures of a stylized painting (:mod:`nsp.style.measures`)."""
 from nsp.style.features import (
-    BACKBONES,
     MIN_SIDE,
     RandomFeatures,
     TappedFeatures,
@@ -16,7 +15,6 @@ from nsp.style.losses import StyleLoss, gram, gram_loss, sliced_wasserstein, sty
 from nsp.style.recolor import Recoloring
 
 __all__ = [
-    "BACKBONES",
     "MIN_SIDE",
     "RandomFeatures",
     "Recoloring",

@@ -15,7 +15,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
-BACKBONES = ("vgg19", "random")
+from nsp.config import BACKBONES
+
 MIN_SIDE = 4  # the smallest image side both take: two halvings (random: its 4× scale; VGG-19 to relu3_3: two max-pools)
 M = TypeVar("M", bound=nn.Module)
 

@@ -30,7 +30,7 @@ from nsp.training.data import StrokeData
 from nsp.training.logger import RunLogger
 from nsp.training.module import RendererModule
 from nsp.training.progress import StepProgressBar
-from nsp.training.schema import check
+from nsp.training.checks import check
 
 METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha")
 

@@ -1,7 +1,8 @@
 """Structured-config schemas of ``python -m nsp.train``, registered in Hydra's ConfigStore.
 
 Typed fields make a bad value fail at compose time naming its key (``trainer.max_epochs=abc``);
-:func:`check` catches the values types cannot.
+:func:`nsp.training.checks.check` catches the values types cannot. Nothing here imports torch:
+``--help`` composes this config.
 """
 from __future__ import annotations
 
@@ -9,13 +10,10 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Optional
 
-import torch
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
 from nsp.config import CONF, BrushConfig  # also registers the ``brush`` group
-from nsp.engine.memory import check_training
-from nsp.errors import BadInput
 
 
 # The ``renderer`` group's options; Hydra rejects any other ``renderer.name`` at compose time.
@@ -105,7 +103,7 @@ class TrainConfig:
     model: ModelConfig = field(default_factory=ModelConfig)
     trainer: TrainerConfig = field(default_factory=TrainerConfig)
     seed: int = 0  # model initialisation and the training strokes
-    lr_by_renderer: dict[str, float] = field(default_factory=dict)  # studies: each renderer's own rate (experiment=renderer_lr)
+    lr_by_renderer: dict[str, dict[str, float]] = field(default_factory=dict)  # studies: size (``32px``) -> renderer -> its rate (experiment=renderer_lr)
     threads: Optional[int] = None  # torch intra-op threads of the training process; None = torch's default
     ckpt_path: Optional[str] = None  # resume from this checkpoint
     output_dir: str = "${hydra:runtime.output_dir}"
@@ -122,37 +120,3 @@ def register_configs() -> None:
 def key_tree() -> TrainConfig:
     """Every key a training config can have (the dual renderer's keys are a superset of the others')."""
     return TrainConfig(renderer=DualConfig(), brush=BrushConfig(MISSING))
-
-
-ACCELERATORS = ("cpu", "gpu", "cuda", "mps", "auto")
-
-
-def check(cfg: Any) -> None:
-    """Raise ``ValueError`` (one line naming the value and what is valid) for a composed training
-    config that types cannot catch: sizes and counts that would train nothing, or train wrongly."""
-    data, model = cfg.data, cfg.model
-    for key in ("batch_size", "epoch_size", "val_size", "test_size"):
-        if data[key] < 1:
-            raise BadInput(f"data.{key}={data[key]}: expected a positive number of strokes")
-    if data.epoch_size < data.batch_size:
-        raise BadInput(f"data.epoch_size={data.epoch_size} is less than one batch (data.batch_size={data.batch_size})")
-    if data.num_workers < 0:
-        raise BadInput(f"data.num_workers={data.num_workers}: expected 0 (render in the training process) or more")
-    if model.channel_mult <= 0:
-        raise BadInput(f"model.channel_mult={model.channel_mult}: expected a positive channel-width multiplier (1 = the paper's)")
-    if cfg.renderer.size != model.size:
-        raise BadInput(f"renderer.size={cfg.renderer.size} differs from model.size={model.size}: set model.size, "
-                         f"the renderer and the training strokes follow it")
-    if model.optimizer.get("lr", 1) <= 0:
-        raise BadInput(f"model.optimizer.lr={model.optimizer.lr}: expected a positive learning rate")
-    accelerator = cfg.trainer.accelerator
-    if accelerator not in ACCELERATORS:
-        raise BadInput(f"trainer.accelerator={accelerator}: expected one of {', '.join(ACCELERATORS)}")
-    if accelerator in ("gpu", "cuda") and not torch.cuda.is_available():
-        raise BadInput(f"trainer.accelerator={accelerator}: this machine has no CUDA GPU; use trainer.accelerator=cpu")
-    if cfg.threads is not None and cfg.threads < 1:
-        raise BadInput(f"threads={cfg.threads}: expected a positive number of threads, or null for torch's default")
-    if cfg.trainer.max_steps < -1 or cfg.trainer.max_steps == 0:
-        raise BadInput(f"trainer.max_steps={cfg.trainer.max_steps}: expected a positive number of steps, or -1 (no limit)")
-    on_cpu = accelerator == "cpu" or (accelerator == "auto" and not torch.cuda.is_available())
-    check_training(data.batch_size, data.val_size + data.test_size, model.size, on_cpu)
