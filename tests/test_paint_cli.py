@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 import torch
 from hydra import compose, initialize_config_dir
-from hydra.errors import ConfigCompositionException
 from omegaconf import OmegaConf
 from PIL import Image, ImageSequence
 
@@ -156,33 +155,19 @@ def test_painting_seconds_count_the_work_after_the_last_stroke_is_placed(photo, 
 @pytest.mark.parametrize(
     ("override", "message"),
     [
-        ("image=missing.jpg", "image=missing.jpg: no such file; give a PNG/JPEG path or one of: astronaut"),
-        ("image={notes}", "is not an image"),
-        ("strokes=0", "strokes=0: expected a positive number"),
-        ("background=blue-ish", "background=blue-ish is not a colour"),
-        ("schedule.init_size=[0.5,0.1]", "schedule.init_size=[0.5, 0.1]: expected [low, high]"),
         ("schedule.face_share=1.5", "schedule.face_share=1.5: expected a share of the strokes in [0, 1)"),
         ("style.image={strip}", "style.size=128: style.image is 1×128 px at that size, under the 4 px a side style "
                                 "transfer needs; use style.size=1024 or more"),
     ],
 )
 def test_bad_input_is_one_line_and_writes_nothing(override, message, photo, tmp_path):
-    notes = tmp_path / "notes.txt"
-    notes.write_text("not a picture")
     strip = tmp_path / "strip.png"  # too thin for style transfer at style.size
     Image.fromarray(np.zeros((2, 300, 3), dtype=np.uint8)).save(strip)
     out = tmp_path / "run"
     with pytest.raises(BadInput, match=re.escape(message)) as error:
-        paint(config(f"image={photo}", override.format(notes=notes, strip=strip), f"output_dir={out}", *TINY[1:]))
+        paint(config(f"image={photo}", override.format(strip=strip), f"output_dir={out}", *TINY[1:]))
     assert "\n" not in str(error.value)
     assert not out.exists()
-
-
-def test_misspelt_keys_and_unknown_brushes_fail_at_compose_time():
-    with pytest.raises(ConfigCompositionException, match="strokse"):
-        config("strokse=10")
-    with pytest.raises(ConfigCompositionException, match="oilpaint"):
-        config("brush=oil")
 
 
 def save_checkpoint(path: Path, brush: str) -> Path:
@@ -214,15 +199,7 @@ def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "nsp.paint", *args], capture_output=True, text=True, cwd=cwd)
 
 
-def test_command_line_errors_are_one_line_with_a_nonzero_exit(tmp_path):
-    result = run("image=nowhere.png", f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
-    assert result.returncode != 0
-    assert result.stderr.strip().splitlines() == [
-        "error: image=nowhere.png: no such file; give a PNG/JPEG path or one of: astronaut, chelsea, coffee, "
-        "rocket, flower, china"
-    ]
-    assert {p.name for p in (tmp_path / "run").iterdir()} <= {".hydra", "paint.log", ".nsp-run"}  # and its claim
-
+def test_a_sweep_with_a_bad_value_among_its_own_is_one_line_and_leaves_no_dir(tmp_path):
     result = run("-m", "brush=tape,oil", f"hydra.sweep.dir={tmp_path / 'sweep'}", cwd=tmp_path)
     assert result.returncode != 0 and not (tmp_path / "sweep").exists()
     assert result.stderr.strip().splitlines() == [

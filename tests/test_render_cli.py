@@ -79,26 +79,6 @@ def test_reference_npz_renders_with_brush(tmp_path):
     assert image[32, 32, 0] == 255 and image[0, 0].sum() == 0
 
 
-@pytest.mark.parametrize(
-    "args, words",
-    [
-        (["out=x.bmp"], "unknown extension '.bmp', expected one of .png, .svg, .gif"),
-        (["strokes=missing.json"], "no such file"),
-        (["background=blue"], "background=blue is not a colour"),
-        (["brush=oil"], "brush=oil: no such brush; expected one of: markerpen, oilpaint, tape, watercolor"),
-        (["size=0"], "size=0: expected a positive number"),
-        (["size=-5"], "size=-5: expected a positive number"),
-        (["size=abc"], "could not be converted to Integer"),
-    ],
-)
-def test_bad_input_is_one_clear_line(args, words, painting, tmp_path):
-    defaults = {"strokes": str(painting("tape")), "out": str(tmp_path / "o.png")}
-    for arg in args:
-        key, value = arg.split("=", 1)
-        defaults[key] = value
-    refused(run(*[f"{k}={v}" for k, v in defaults.items()]), words, tmp_path)
-
-
 def refused(result, words, folder):
     """The command ended as a bad input should: exit 2, one ``error:`` line naming the value, and
     nothing written in ``folder`` (no output file, no temporary one)."""

@@ -138,16 +138,6 @@ def test_painting_sweep_reports_its_own_metrics_and_no_renderer_table(tmp_path):
     assert "by renderer and brush" not in (tmp_path / "report.md").read_text()
 
 
-@pytest.mark.parametrize("make", [lambda p: p / "missing", lambda p: p])  # absent; a dir without jobs
-def test_bad_dir_is_a_one_line_error_naming_it(tmp_path, make, capsys):
-    path = make(tmp_path)
-    with pytest.raises(SystemExit) as exit_:
-        cli([str(path)])
-    message = capsys.readouterr().err
-    assert exit_.value.code == 2 and message.startswith("error: ") and message.count("\n") == 1
-    assert str(path) in message and ".hydra/overrides.yaml" in message
-
-
 def test_without_a_dir_the_newest_multirun_is_reported(tmp_path, monkeypatch, capsys):
     for name, psnr in (("old", 11.0), ("new", 12.0)):
         sweep = tmp_path / "multirun" / "train" / name

@@ -24,9 +24,10 @@ from nsp.painter.losses import PaintLoss
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer
 from nsp.painter.schema import LossConfig
-from nsp.painter.stylize import COHERENT, STRUCTURE, canvas_color, recolor, stylize
+from nsp.painter.stylize import canvas_color, stylize
 from nsp.style import Recoloring, StyleLoss
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
+from nsp.style.recolor import ColorSettings, shared_map
 
 SIZE = 48
 CONF = Path(__file__).parents[1] / "conf"
@@ -125,13 +126,14 @@ def test_the_recolouring_goes_as_far_as_structure_and_coherence_allow(scene):
     def painted(recoloring):
         return draw(brush, recoloring.strokes(brush, strokes), canvas_color(recoloring, "white"))
 
-    kept = recolor(brush, strokes, painting, target, style[0], 0.0)  # β 0 keeps the lightness: the start alone
+    kept = shared_map(brush, strokes, painting, target, style[0], 0.0, "white", 0)  # β 0 keeps the lightness: the start alone
     assert kept.lightness.equal(Recoloring.fit(painting, style[0]).lightness) and kept.hue.abs().max() == 0
     distance = []
     for weight in (0.25, 0.5, 1.0):
-        canvas = painted(recolor(brush, strokes, painting, target, style[0], weight))
-        assert luminance_ssim(canvas, target) >= (1 - STRUCTURE * weight) * plain  # checked on the strokes
-        assert coherence(painting, canvas, seed=1) <= COHERENT
+        canvas = painted(shared_map(brush, strokes, painting, target, style[0], weight, "white", 0))
+        settings = ColorSettings()
+        assert luminance_ssim(canvas, target) >= (1 - settings.structure * weight) * plain  # checked on the strokes
+        assert coherence(painting, canvas) <= settings.coherence
         distance.append(color_distance(canvas, style[0]))
     assert distance[2] < distance[0] < color_distance(painted(kept), style[0])
 
@@ -139,7 +141,7 @@ def test_the_recolouring_goes_as_far_as_structure_and_coherence_allow(scene):
 def test_full_mode_moves_the_texture_toward_the_style_on_a_held_out_network(scene, color_mode):
     brush, strokes, target, style = scene
     plain = color_mode[0]
-    shared = recolor(brush, strokes, plain, target, style[0], 0.5)  # where the style steps start
+    shared = shared_map(brush, strokes, plain, target, style[0], 0.5, "white", 0)  # where the style steps start
     start = draw(brush, shared.strokes(brush, strokes), canvas_color(shared, "white"))
     full = draw(brush, *run(scene, "full", steps=40))
     # the held-out filters (another seed than the style steps') see the texture move, beyond the recolouring;
@@ -147,13 +149,6 @@ def test_full_mode_moves_the_texture_toward_the_style_on_a_held_out_network(scen
     distance = [texture_distance(image, style[0]) for image in (plain, start, full)]
     assert distance[2] < 0.9 * distance[1] < distance[0]
     assert luminance_ssim(full, target) > 0.5 * luminance_ssim(plain, target)  # the picture still reads
-
-
-def test_random_backbone_gives_identical_results_for_the_same_seed(scene):
-    a = run(scene, "full", steps=5, seed=3)
-    b = run(scene, "full", steps=5, seed=3)
-    c = run(scene, "full", steps=5, seed=4)
-    assert torch.equal(a[0], b[0]) and a[1] == b[1] and not torch.equal(a[0], c[0])
 
 
 def test_the_style_study_runs_as_a_painting_experiment(tmp_path):
@@ -177,18 +172,19 @@ def test_the_style_study_runs_as_a_painting_experiment(tmp_path):
 def test_the_held_out_study_shares_no_image_with_the_development_set_or_the_tests(tmp_path):
     with initialize_config_dir(str(CONF / "paint"), version_base="1.3"):
         study = compose("paint", overrides=["experiment=style_heldout"])
+        dev = compose("paint", overrides=["experiment=style_dev"])
         cfg = compose("paint", overrides=["experiment=style_heldout", f"output_dir={tmp_path}", "task.photos=[coins]",
                                           "task.styles=[coins,moon]", "strokes=4", "work_size=32", "style.size=32",
                                           "style.weight=0"])  # the lightness kept: toward a grey style, colour mode falls short
-    development = {"astronaut", "chelsea", "coffee", "rocket", "china", "flower", "camera", "gravel", "brick", "grass"}
+    development = {*dev.task.photos, *dev.task.styles}
+    assert {"astronaut", "grass"} <= development and len(development) == 10 and list(dev.task.modes) == ["color"]
     assert len(study.task.photos) == 10 and list(study.task.styles) == list(study.task.photos)
     assert not development & set(study.task.photos) and list(study.task.modes) == ["color"]
     metrics = instantiate(cfg.task)(cfg)  # an image of skimage.data, not a built-in photo; never toward itself
     pairs = json.loads((tmp_path / "pairs.json").read_text())["pairs"]
     assert [(p["photo"], p["style"], p["mode"]) for p in pairs] == [("coins", "moon", m) for m in ("plain", "color")]
     assert metrics["pairs_meeting_targets"] == "0/1" and "texture_distance_full" not in metrics
-    color = pairs[1]  # the miss has its ceiling: at the targets' floor, a recolouring of its strokes meets all three
-    assert not meets_targets(color) and color["ceiling"] >= 0.5 and metrics["misses_within_reach"] == "1/1"
+    assert not meets_targets(pairs[1])
 
 
 def paint_cli(tmp_path, *args, env=None):
@@ -229,7 +225,7 @@ def test_missing_vgg_weights_is_one_clear_error(tmp_path):
 
 
 @pytest.mark.parametrize("override, named", [("task.modes=[colour]", "task.modes: colour unknown; expected some of"),
-                                             ("task.ceilings=maybe", "task.ceilings=maybe: expected true or false")])
+                                             ("task.color={stroke_step: 3}", "unexpected keyword argument 'stroke_step'; expected fields of nsp.style.recolor.ColorSettings")])
 def test_a_study_refuses_a_bad_task_value_before_painting(tmp_path, override, named):
     with initialize_config_dir(str(CONF / "paint"), version_base="1.3"):
         cfg = compose("paint", overrides=["experiment=style_heldout", f"output_dir={tmp_path}", override])

@@ -22,8 +22,6 @@ from omegaconf import DictConfig, OmegaConf
 from torch import Tensor
 from torchvision.utils import make_grid
 
-from nsp.brushes import Brush
-from nsp.colors import parse_color
 from nsp.engine import paint_canvas
 from nsp.errors import BadInput
 from nsp.files import write_json
@@ -35,15 +33,10 @@ from nsp.painter.run import prepare
 from nsp.config import MODES
 from nsp.painter.stylize import stylize
 from nsp.style import StyleLoss
+from nsp.style.recolor import ColorSettings
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
-from nsp.style.refine import color_basis, refine_colors
 
 TARGETS = {"color_distance_drop": 0.5, "coherence": 0.05, "ssim_ratio": 0.9}  # colour mode: ≥, ≤, ≥
-CEILING_STEPS = 600  # the search for the ceiling: steps from each of its two starts
-CEILING_RATE = 0.01  # at this rate, in L*a*b* / 100
-CEILING_MARGIN = 0.02  # it aims this share inside the two other targets
-CEILING_TIGHTEN = 10.0  # and its penalties grow tenfold, to end at their edge
-MEASURED = 256  # it judges its iterates on the colour distance's own directions (nsp.style.measures)
 COLUMNS = ("color_distance", "color_distance_drop", "coherence", "luminance_ssim", "ssim_ratio", "style_loss",
            "texture_distance")
 
@@ -91,33 +84,6 @@ def measure(image: Tensor, plain: Tensor, photo: Tensor, style: Tensor, loss: St
             "texture_distance": texture_distance(image, style)}
 
 
-def ceiling(brush: Brush, strokes: Tensor, styled: Tensor, canvas: str, photo: Tensor, style: Tensor,
-            background: str) -> float:
-    """The largest colour-distance drop toward ``style`` found for any colours of the painting
-    ``strokes`` (N, d) of ``photo`` (3, H, W) on ``background``, within colour mode's two other
-    targets: every stroke's colours and the canvas's searched freely in L*a*b* on the measures
-    themselves, from the plain colours and from colour mode's (``styled``, ``canvas``). Shapes
-    stay as painted, as colour mode keeps them; below the drop target, no recolouring the search
-    found meets all three. A search, not a proof: a lower bound on the best recolouring's drop.
-    """
-    height, width = photo.shape[1:]
-    plain = paint_canvas(brush, strokes, height, width, background)
-    start = color_distance(plain, style)
-    floor = TARGETS["ssim_ratio"] * luminance_ssim(plain, photo)
-    basis = color_basis(brush, strokes, height, width)  # colour mode keeps the shapes: one basis for both starts
-    found = [(styled, torch.tensor(parse_color(canvas)))]  # colour mode's own colours may meet both already
-    for given in ((strokes, torch.tensor(parse_color(background))), found[0]):
-        found.append(refine_colors(brush, *given, plain, photo, style, floor, TARGETS["coherence"],
-                                   spread=torch.eye(3), steps=CEILING_STEPS, rate=CEILING_RATE, margin=CEILING_MARGIN,
-                                   tighten=CEILING_TIGHTEN, judge=MEASURED, seed=0, basis=basis))
-    drops = [0.0]  # the plain colours meet both other targets
-    for candidate, colour in found:
-        image = paint_canvas(brush, candidate, height, width, tuple(colour.tolist()))
-        if luminance_ssim(image, photo) >= floor and coherence(plain, image) <= TARGETS["coherence"]:
-            drops.append(1 - color_distance(image, style) / start)
-    return max(drops)
-
-
 def meets_targets(row: dict) -> bool:
     """Whether the colour-mode measures ``row`` meet all three :data:`TARGETS`."""
     return (row["color_distance_drop"] >= TARGETS["color_distance_drop"] and row["coherence"] <= TARGETS["coherence"]
@@ -126,25 +92,26 @@ def meets_targets(row: dict) -> bool:
 
 def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flower"),
          styles: tuple[str, ...] = ("gravel", "brick", "rocket"), modes: tuple[str, ...] = MODES,
-         ceilings: bool = False) -> dict:
+         color: dict | None = None) -> dict:
     """Paint every photo, stylize it toward every other image of ``styles`` in each of ``modes``,
-    measure all. Images are names of :func:`style_image`. With ``ceilings``, each colour-mode pair
-    that misses a target gets its :func:`ceiling`: how far any recolouring of its strokes was found
-    to go.
+    measure all. Images are names of :func:`style_image`. ``color``: colour mode's settings other
+    than the defaults (:class:`~nsp.style.recolor.ColorSettings` fields), to compare them on the
+    development pairs.
 
     Writes ``pairs.json`` (per photo, style and mode — ``plain`` and ``modes`` — the measures,
     with ``color_distance_drop`` = 1 − distance / the plain painting's and ``ssim_ratio`` =
-    luminance SSIM / the plain painting's, and any ``ceiling``), ``table.md``, ``grid.png`` (a row
+    luminance SSIM / the plain painting's), ``table.md``, ``grid.png`` (a row
     per pair: photo, style, plain, then each of ``modes``) and ``metrics.json``: colour mode's worst
-    case of each target measure, how many pairs meet all three targets (and with ``ceilings``, of
-    the misses, how many have a ceiling at the drop target: ``misses_within_reach``), the mean
+    case of each target measure, how many pairs meet all three targets, the mean drop, the mean
     texture distance of the plain paintings and of each mode's, and ``seconds``. A photo is not
     stylized toward itself.
     """
     if unknown := set(modes) - set(MODES):
         raise BadInput(f"task.modes: {', '.join(sorted(unknown))} unknown; expected some of {', '.join(MODES)}")
-    if not isinstance(ceilings, bool):
-        raise BadInput(f"task.ceilings={ceilings}: expected true or false")
+    try:
+        settings = ColorSettings(**(color or {}))
+    except TypeError as error:
+        raise BadInput(f"task.color={color}: {error}; expected fields of nsp.style.recolor.ColorSettings") from None
     start = time.perf_counter()
     if cfg.threads:
         torch.set_num_threads(cfg.threads)  # as a painting does: the same numbers in a run and in a sweep
@@ -161,7 +128,7 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
             photo = resize(photo, cfg.style.size)
             for style_name in (s for s in styles if s != photo_name):
                 bar.advance(0, f"{photo_name} × {style_name}")
-                pair, paintings = pair_rows(cfg, painter, strokes, photo, style_name, modes, ceilings)
+                pair, paintings = pair_rows(cfg, painter, strokes, photo, style_name, modes, settings)
                 rows += [{"photo": photo_name, "style": style_name, "mode": mode} | row for mode, row in pair.items()]
                 tiles += [tile(x, cfg.style.size) for x in paintings]
                 bar.advance(1, f"{photo_name} × {style_name}")
@@ -175,30 +142,27 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
 
 
 def pair_rows(cfg: DictConfig, painter: Painter, strokes: Tensor, photo: Tensor, style_name: str,
-              modes: tuple[str, ...], ceilings: bool) -> tuple[dict[str, dict], list[Tensor]]:
+              modes: tuple[str, ...], settings: ColorSettings) -> tuple[dict[str, dict], list[Tensor]]:
     """The painting ``strokes`` (N, d) of ``photo`` (3, H, W, the style canvas) by ``painter``,
     stylized toward ``style_name`` in each of ``modes``: the measures of the plain painting and of
-    each mode's (with any ``ceiling``, as :func:`grid` says), and the images of the grid's row:
-    photo, style, plain, then each mode's painting."""
+    each mode's, and the images of the grid's row: photo, style, plain, then each mode's painting."""
     brush = painter.brush
     height, width = photo.shape[1:]
     image = style_image(style_name, cfg.style.size)
     style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed)
     plain = paint_canvas(brush, strokes, height, width, cfg.background)
-    paintings, results = {"plain": plain}, {}
+    paintings = {"plain": plain}
     for mode in modes:
-        styled, canvas = results[mode] = stylize(
+        styled, canvas = stylize(
             brush, strokes, photo, image, painter.loss, instantiate(cfg.optimizer), loss=style,
             weight=cfg.style.weight, steps=cfg.style.steps, mode=mode, background=cfg.background,
-            softness=cfg.renderer.softness)
+            softness=cfg.renderer.softness, seed=cfg.seed, color=settings)
         paintings[mode] = paint_canvas(brush, styled, height, width, canvas)
     rows = {}
     for mode, painting in paintings.items():  # the plain painting first: the others' base
         row = rows[mode] = measure(painting, plain, photo, image, style)
         row["color_distance_drop"] = 1 - row["color_distance"] / rows["plain"]["color_distance"]
         row["ssim_ratio"] = row["luminance_ssim"] / rows["plain"]["luminance_ssim"]
-        if ceilings and mode == "color" and not meets_targets(row):
-            row["ceiling"] = ceiling(brush, strokes, *results[mode], photo, image, cfg.background)
     return rows, [photo, image, *paintings.values()]
 
 
@@ -222,22 +186,20 @@ def summary(rows: list[dict]) -> dict:
     if not color:
         return texture
     met = sum(meets_targets(r) for r in color)
-    reach = [r["ceiling"] >= TARGETS["color_distance_drop"] for r in color if "ceiling" in r]
     return {
         "color_distance_drop_min": round(min(r["color_distance_drop"] for r in color), 4),
         "coherence_max": round(max(r["coherence"] for r in color), 4),
         "ssim_ratio_min": round(min(r["ssim_ratio"] for r in color), 4),
         "pairs_meeting_targets": f"{met}/{len(color)}",
-    } | ({"misses_within_reach": f"{sum(reach)}/{len(reach)}"} if reach else {}) | texture
+        "color_distance_drop_mean": round(sum(r["color_distance_drop"] for r in color) / len(color), 4),
+    } | texture
 
 
 def table(rows: list[dict]) -> str:
     """The measures as a Markdown table, a line per photo, style and mode."""
-    ceilings = any("ceiling" in r for r in rows)
-    head = ["photo", "style", "mode", *COLUMNS] + ["ceiling"] * ceilings
+    head = ["photo", "style", "mode", *COLUMNS]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         cells = [r["photo"], r["style"], r["mode"], *(f"{r[c]:.3f}" for c in COLUMNS)]
-        cells += [f"{r['ceiling']:.3f}" if "ceiling" in r else ""] * ceilings
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

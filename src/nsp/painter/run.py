@@ -142,7 +142,7 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
         strokes, background = stylize(painter.brush, strokes, resize(photo, cfg.style.size), image, painter.loss,
                                       instantiate(cfg.optimizer), loss=style, weight=cfg.style.weight, steps=cfg.style.steps,
                                       mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness,
-                                      callbacks=[log_step])
+                                      seed=cfg.seed, callbacks=[log_step])
     return strokes, background, bar.seconds
 
 

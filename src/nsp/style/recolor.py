@@ -1,54 +1,215 @@
-"""Colour mode (paper §3.5): one recolouring shared by the whole painting.
+"""Colour mode (paper §3.5): a painting's colours moved toward a style image's, its shapes kept.
 
-A :class:`Recoloring` maps L*a*b* / 100 colours (:mod:`nsp.style.color`):
+Two promises bound every change (:class:`Bounds`): the painting's luminance structure still reads
+(its luminance SSIM to the photo keeps a share 1 − ``structure``·β_sty of the plain painting's),
+and colours alike in the plain painting stay alike (on average within ``coherence``, RGB). Within
+them, two fits lower the sliced Wasserstein distance between the painting's colours and the
+style's (:class:`Objective`), each followed by the same check on the painted strokes
+(:func:`within_bounds`):
 
-- lightness L ↦ f(L), f increasing and piecewise linear over :data:`KNOTS` pieces of [0, 1], its
-  slope at most :data:`STRETCH`: tones keep their order, so edges stay edges;
-- chroma c = (a*, b*) ↦ μ_s + A(c − μ_p) + g(L), A a 2×2 matrix and g piecewise linear in L: a tone
-  may take a hue of its own (the style's shadows blue, its lights yellow).
+1. **One map shared by every stroke and the canvas colour** (:class:`Recoloring`), in L*a*b*:
+   lightness L ↦ f(L), f increasing and piecewise linear (tones keep their order, so edges stay
+   edges), chroma c ↦ μ_s + A(c − μ_p) + g(L) (a tone may take a hue of its own). It starts at
+   the Gaussian optimal transport map of the chroma (:meth:`Recoloring.fit`) and is fitted on the
+   painting's pixels (:meth:`Recoloring.refine`).
+2. **Then each stroke's colours on their own** (:func:`refine_strokes`), each moving along the
+   style's own spread of colours: toward a grey style no stroke takes a hue. The shared map keeps
+   alike colours exactly alike; this step spends what is left of the coherence bound.
 
-It is one map for every stroke and the canvas colour, so colours that were alike stay alike.
-
-- :meth:`Recoloring.fit` is the start: A is the optimal transport map between the Gaussian
-  approximations of the painting's (p) and the style's (s) chroma, Σ_p^-½ (Σ_p^½ Σ_s Σ_p^½)^½ Σ_p^-½,
-  its stretch capped at :data:`STRETCH` (a drab painting carried onto a vivid style would
-  otherwise pull its near-alike colours apart); f is the identity and g zero. The photo's hues are
-  not its content: they are what colour mode replaces. Its lightness is.
-- :meth:`Recoloring.refine` then fits f, g and A to the style's colours themselves, by gradient
-  steps on the painting's pixels: the sliced Wasserstein distance to the style's colours falls,
-  while the luminance SSIM to the photo stays above a floor and colours alike in the painting stay
-  within a bound of each other. A Gaussian map gives a grey photo the style's mean hue and little
-  more; g spreads the style's hues over the tones, and f takes the style's tones as far as the
-  floor allows.
-- :meth:`Recoloring.matched_tones` is the other way to take the style's tones: f the tone
-  quantiles matched (histogram matching), to go part of the way toward.
+Each fit is checked on the painting the strokes make (where translucent strokes blend, a curved
+map's blend is not the map of the blend) and, past a bound, taken back toward its start a share
+at a time. The knobs are :class:`ColorSettings`'s, chosen on the development pairs of
+``experiment=style_dev`` (docs/style.md).
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
 
 import torch
 import torch.nn.functional as F
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.colors import lab_to_rgb, rgb_to_lab
+from nsp.colors import hex_color, lab_to_rgb, parse_color, rgb_to_lab
+from nsp.engine import paint_canvas
 from nsp.images import ssim
 from nsp.style.losses import sliced_wasserstein
-from nsp.style.measures import alike_pairs, parted
+from nsp.style.measures import SAMPLES, alike_pairs, luminance_ssim, parted
 
-EPS = 1e-4  # added to the painting's chroma covariance: (1 ΔE)², so a grey painting's stays invertible
-STRETCH = 2.0  # the most the start stretches chroma differences (A's largest eigenvalue) and f's slope
 KNOTS = 16  # f and g are linear on each of KNOTS equal pieces of L ∈ [0, 1]
-STEPS = 150  # refine's gradient steps
-RATE = 0.05  # refine's Adam learning rate, cosine-annealed to 0
-HUE_RATE = RATE / 10  # g's: near black, a step of chroma leaves the sRGB gamut
-PIXELS = 2048  # seeded pixels of the painting and of the style whose colours refine compares
-PROJECTIONS = 32  # sliced Wasserstein directions a refine step draws
-JUDGE = 128  # the fixed directions the iterates are compared on, every CHECK steps; the best is kept
-CHECK = 10
-PAIRS = 1024  # seeded pixels among which refine finds the alike pairs it holds together
-PENALTY = 10.0  # the weight of a bound's excess against the colour distance
-MARGIN = 0.1  # refine aims this share inside each bound: the strokes' blends differ a little from pixels'
-HUED = 0.005  # a direction of chroma in which the style's colours vary less (standard deviation, 0.5 ΔE) takes no hue
+STRETCH = 2.0  # the most the map stretches chroma differences (A's largest eigenvalue) and f's slope
+EPS = 1e-4  # added to the painting's chroma covariance, (1 ΔE)²: a grey painting's stays invertible
+HUED = 0.005  # a direction of chroma in which the style's colours vary less (0.5 ΔE) takes no hue
+PIXELS = 2048  # seeded pixels of the painting and of the style a fit's step compares
+PAIRS = 20000  # the alike pairs a fit's step holds together, drawn afresh
+PROJECTIONS = 32  # sliced Wasserstein directions a fit's step draws
+JUDGE = 256  # the fixed directions on which a fit's result is compared with its start
+PENALTY = 10.0  # a bound's excess against the (relative) colour distance
+
+
+@dataclass(frozen=True)
+class ColorSettings:
+    """Colour mode's knobs, each defaulted here alone; docs/style.md says how they were chosen."""
+
+    structure: float = 0.2  # the share of the plain painting's luminance SSIM given up per unit of β_sty
+    coherence: float = 0.05  # the most colours alike in the plain painting (within 0.03 RGB) may part on average
+    margin: float = 0.05  # the fits aim this share inside each bound
+    map_steps: int = 150  # Adam steps of the shared map on the painting's pixels
+    map_rate: float = 0.05  # their learning rate (L*a*b* / 100), cosine-annealed to 0
+    stroke_steps: int = 100  # Adam steps of each stroke's colours; 0: the shared map alone
+    stroke_rate: float = 0.08  # their learning rate, in the style's standard deviations
+    back: int = 10  # a fit past a bound goes back toward its start 1/back of the way at a time
+
+
+class Bounds:
+    """Colour mode's two promises about a recoloured painting (3, H, W) of ``photo``: its luminance
+    SSIM to the photo ≥ ``floor`` = (1 − structure·β) × the ``plain`` painting's, and the pixels
+    alike in ``plain`` (:func:`~nsp.style.measures.alike_pairs`, the measure's :data:`SAMPLES`,
+    drawn with ``seed``) within ``settings.coherence`` of each other on average."""
+
+    def __init__(self, plain: Tensor, photo: Tensor, weight: float, settings: ColorSettings, seed: int):
+        self.photo, self.settings = photo, settings
+        self.lightness = rgb_to_lab(photo.float(), dim=0)[:1]
+        self.floor = (1 - settings.structure * weight) * luminance_ssim(plain, photo)
+        self.first, self.second = alike_pairs(plain.flatten(1).T.float(), SAMPLES, torch.Generator().manual_seed(seed))
+
+    def hold(self, image: Tensor) -> bool:
+        """Whether ``image`` keeps both (no alike pair at all: nothing to part)."""
+        apart = parted(image, self.first, self.second)
+        return luminance_ssim(image, self.photo) >= self.floor and not apart > self.settings.coherence
+
+    def excess(self, image: Tensor, generator: torch.Generator) -> Tensor:
+        """How far ``image`` lies past either bound aimed ``margin`` inside, on :data:`PAIRS` drawn
+        pairs: differentiable, 0 well within."""
+        margin = self.settings.margin
+        structure = ssim(rgb_to_lab(image, dim=0)[:1], self.lightness)
+        excess = F.relu(self.floor + margin * (1 - self.floor) - structure)
+        if len(self.first):
+            pick = torch.randint(len(self.first), (min(len(self.first), PAIRS),), generator=generator)
+            excess = excess + F.relu(parted(image, self.first[pick], self.second[pick]) - (1 - margin) * self.settings.coherence)
+        return excess
+
+
+class Objective:
+    """What both fits lower: the sliced Wasserstein distance in L*a*b* / 100 between a painting's
+    colours and ``style``'s (3, h, w), relative to the ``plain`` painting's, plus :data:`PENALTY` ×
+    the :class:`Bounds`' excess."""
+
+    def __init__(self, plain: Tensor, style: Tensor, bounds: Bounds, seed: int):
+        self.bounds, self.seed = bounds, seed
+        self.generator = torch.Generator().manual_seed(seed + 1)
+        self.style = rgb_to_lab(style.float(), dim=0).flatten(1)
+        self.sampled = self.style[:, torch.randperm(self.style.shape[1], generator=self.generator)[:PIXELS]]
+        self.scale = max(self.distance(plain), 1e-6)  # 0: the style's own colours
+
+    def __call__(self, image: Tensor) -> Tensor:
+        """A step's loss: :data:`PIXELS` fresh pixels of ``image`` (3, H, W) on fresh directions."""
+        lab = rgb_to_lab(image.flatten(1), dim=0)
+        pixels = lab[:, torch.randperm(lab.shape[1], generator=self.generator)[:PIXELS]]
+        distance = sliced_wasserstein(pixels[None, :, :, None], self.sampled[None, :, :, None], PROJECTIONS, self.generator)
+        return distance / self.scale + PENALTY * self.bounds.excess(image, self.generator)
+
+    def distance(self, image: Tensor) -> float:
+        """The distance of every pixel, on :data:`JUDGE` directions fixed by the seed: how fits are judged."""
+        with torch.no_grad():
+            lab = rgb_to_lab(image.float().flatten(1), dim=0)
+            generator = torch.Generator().manual_seed(self.seed)
+            return float(sliced_wasserstein(lab[None, :, :, None], self.style[None, :, :, None], JUDGE, generator))
+
+
+def recolor(brush: Brush, strokes: Tensor, photo: Tensor, style: Tensor, weight: float, background: str,
+            seed: int, settings: ColorSettings = ColorSettings()) -> tuple[Tensor, str]:
+    """Colour mode: ``strokes`` (N, d), a painting of ``photo`` (3, H, W) on ``background``,
+    recoloured toward ``style`` (3, h, w), all RGB in [0, 1], β_sty = ``weight`` (0: the shared
+    map's start alone, which keeps the lightness). Returns the strokes, shapes bit for bit, and the
+    canvas colour as ``#rrggbb``; the fits' draws are seeded by ``seed``."""
+    height, width = photo.shape[1:]
+    with torch.no_grad():
+        plain = paint_canvas(brush, strokes, height, width, background)
+    shared = shared_map(brush, strokes, plain, photo, style, weight, background, seed, settings)
+    x, canvas = shared.strokes(brush, strokes), shared(torch.tensor(parse_color(background)))
+    if weight > 0 and settings.stroke_steps:
+        bounds = Bounds(plain, photo, weight, settings, seed)
+        x, canvas = refine_strokes(brush, x, canvas, style, Objective(plain, style, bounds, seed), settings)
+    return x, hex_color(canvas)
+
+
+def shared_map(brush: Brush, strokes: Tensor, plain: Tensor, photo: Tensor, style: Tensor, weight: float,
+               background: str, seed: int, settings: ColorSettings = ColorSettings()) -> Recoloring:
+    """The map shared by every stroke of ``strokes`` (N, d) and by the canvas colour: fitted on
+    the ``plain`` painting's pixels (3, H, W, of ``photo`` on ``background``), then the largest
+    share of the way from its start that keeps the :class:`Bounds` on the painted strokes. ``weight``
+    0: the start alone."""
+    start = Recoloring.fit(plain, style)
+    if weight == 0:
+        return start
+    bounds = Bounds(plain, photo, weight, settings, seed)
+    objective = Objective(plain, style, bounds, seed)
+    fitted = start.refine(plain, objective, settings)
+    height, width = plain.shape[1:]
+
+    def painted(share: float) -> tuple[Recoloring, Tensor]:
+        recoloring = start.toward(fitted, share)
+        canvas = recoloring(torch.tensor(parse_color(background)))
+        return recoloring, paint_canvas(brush, recoloring.strokes(brush, strokes), height, width,
+                                        parse_color(hex_color(canvas)))
+
+    return within_bounds(painted, bounds, objective, settings.back) or start
+
+
+def within_bounds(painted: Callable[[float], tuple[object, Tensor]], bounds: Bounds, objective: Objective,
+                  back: int) -> object | None:
+    """Of a fit's results ``painted(share)`` -> (result, its painting (3, H, W)), share 1 the fit
+    and 0 its start: the largest share of 1, 1 − 1/``back``, …, 1/``back`` whose painting keeps the
+    ``bounds``, if it lies nearer the style than the start's; else None (the start stands)."""
+    with torch.no_grad():
+        start = objective.distance(painted(0.0)[1])
+        for share in range(back, 0, -1):
+            result, image = painted(share / back)
+            if bounds.hold(image):
+                return result if objective.distance(image) < start else None
+    return None
+
+
+def refine_strokes(brush: Brush, strokes: Tensor, canvas: Tensor, style: Tensor, objective: Objective,
+                   settings: ColorSettings) -> tuple[Tensor, Tensor]:
+    """Every colour of the painting ``strokes`` (N, d) on the canvas colour ``canvas`` (3,) moved on
+    its own by an offset in L*a*b* along the style's spread of colours (offset = Σ½·u, Σ their
+    covariance: strokes part only in the directions the style's colours vary in), ``stroke_steps``
+    Adam steps on the painted canvas lowering ``objective``; then :func:`within_bounds`. Returns
+    the strokes (shapes bit for bit) and the canvas colour (3,)."""
+    height, width = objective.bounds.photo.shape[1:]
+    index = list(brush.color)
+    start = torch.cat([strokes[:, index].reshape(-1, 3), canvas[None].to(strokes)]).float()  # (K, 3): strokes', canvas
+    lab = rgb_to_lab(start)
+    spread = psd_sqrt(torch.cov(objective.style.double()) + 1e-8 * torch.eye(3, dtype=torch.float64)).float()
+    offsets = torch.zeros_like(start, requires_grad=True)
+    optimizer = torch.optim.Adam([offsets], lr=settings.stroke_rate)
+
+    def colored(share: float | Tensor) -> tuple[Tensor, Tensor]:
+        table = lab_to_rgb(lab + share * offsets @ spread.T).clamp(0, 1)
+        x = strokes.detach().clone()
+        x[:, index] = table[:-1].reshape(len(x), -1).to(x)
+        return x, table[-1]
+
+    def paint(x: Tensor, color: Tensor) -> Tensor:
+        return paint_canvas(brush, x, height, width, canvas=color[:, None, None].expand(3, height, width))
+
+    for _ in range(settings.stroke_steps):
+        x, color = colored(1.0)
+        loss = objective(paint(x, color))
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+
+    def painted(share: float) -> tuple[tuple[Tensor, Tensor], Tensor]:
+        x, color = colored(share)
+        x, color = x.detach(), torch.tensor(parse_color(hex_color(color)))  # the canvas colour as the files write it
+        return (x, color), paint(x, color)
+
+    kept = within_bounds(painted, objective.bounds, objective, settings.back)
+    return kept if kept is not None else (strokes, canvas)
 
 
 class Recoloring:
@@ -66,8 +227,9 @@ class Recoloring:
 
     @classmethod
     def fit(cls, painting: Tensor, style: Tensor) -> Recoloring:
-        """The start: the chroma of ``painting`` (3, H, W) carried onto ``style``'s (3, h, w), both
-        RGB in [0, 1], by the Gaussian transport map; the lightness kept."""
+        """The start: the chroma of ``painting`` (3, H, W) carried onto ``style``'s (3, h, w) by the
+        optimal transport map between their Gaussian approximations, its stretch capped at
+        :data:`STRETCH` (a drab painting's near-alike colours are not pulled apart); the lightness kept."""
         p = rgb_to_lab(painting.detach().flatten(1).cpu().double(), dim=0)[1:]  # (2, N); a 2×2 fit: on the CPU
         s = rgb_to_lab(style.detach().flatten(1).cpu().double(), dim=0)[1:]  # (2, M)
         transport = gaussian_transport(torch.cov(p) + EPS * torch.eye(2, dtype=p.dtype), torch.cov(s))
@@ -76,76 +238,37 @@ class Recoloring:
         return cls(torch.linspace(0, 1, KNOTS + 1), torch.zeros(KNOTS + 1, 2), matrix.float(), p.mean(1).float(),
                    s.mean(1).float())
 
-    def refine(self, painting: Tensor, photo: Tensor, style: Tensor, floor: float, bound: float,
-               seed: int = 0) -> Recoloring:
-        """This map refined so that ``painting`` (3, H, W) takes ``style``'s colours (3, h, w): its
-        sliced Wasserstein distance to them falls, while its luminance SSIM to ``photo`` (3, H, W)
-        stays ≥ ``floor`` and colours within :data:`~nsp.style.measures.NEAR` of each other in it end
-        up ≤ ``bound`` apart on average (RGB), each aimed :data:`MARGIN` inside; all RGB in [0, 1].
-        g and A vary the chroma only in the directions the style's does (:func:`chroma_span`): toward
-        a grey style the painting stays grey. :data:`STEPS` Adam steps on the painting's pixels,
-        their draws seeded by ``seed``."""
-        generator = torch.Generator().manual_seed(seed)
-        height, width = painting.shape[1:]
-        colors = painting.detach().cpu().float().flatten(1).T  # (N, 3)
-        lab = rgb_to_lab(colors)
-        styles = rgb_to_lab(style.detach().cpu().float().flatten(1).T)
-        styles = styles[torch.randperm(len(styles), generator=generator)[:PIXELS]].T[None, :, :, None]  # (1, 3, M, 1)
-        compared = torch.randperm(len(lab), generator=generator)[:PIXELS]
-        first, second = alike_pairs(colors, PAIRS, generator)
-        photo_lightness = rgb_to_lab(photo.detach().cpu().float(), dim=0)[:1]
-        span = chroma_span(style)
-        floor, bound = floor + MARGIN * (1 - floor), (1 - MARGIN) * bound
-
+    def refine(self, painting: Tensor, objective: Objective, settings: ColorSettings) -> Recoloring:
+        """This map with f, g and A fitted so that ``painting`` (3, H, W) recoloured lowers
+        ``objective``: ``map_steps`` Adam steps on its pixels. f stays increasing with slope ≤
+        :data:`STRETCH`; g and A vary the chroma only where the style's colours vary (:func:`chroma_span`)."""
+        span = chroma_span(objective.style)
         slope = (self.lightness.diff() * KNOTS / STRETCH).clamp(1e-3, 1 - 1e-3)
         logits = torch.logit(slope).requires_grad_(True)  # f's slope, STRETCH·sigmoid: increasing, ≤ STRETCH
         start = self.lightness[:1].clone().requires_grad_(True)
         hue, matrix = self.hue.clone().requires_grad_(True), self.matrix.clone().requires_grad_(True)
-        optimizer = torch.optim.Adam([{"params": [logits, start, matrix]}, {"params": [hue], "lr": HUE_RATE}], lr=RATE)
-        schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, STEPS)
+        optimizer = torch.optim.Adam([{"params": [logits, start, matrix]}, {"params": [hue], "lr": settings.map_rate / 10}],
+                                     lr=settings.map_rate)  # g's tenth: near black, a step of chroma leaves the gamut
+        schedule = torch.optim.lr_scheduler.CosineAnnealingLR(optimizer, max(settings.map_steps, 1))
 
         def current() -> Recoloring:
             values = torch.cat([start, start + torch.cumsum(STRETCH * torch.sigmoid(logits) / KNOTS, 0)])
             return Recoloring(values, hue @ span.T, span @ matrix, self.mean_in, self.mean_out)
 
-        def objective(draws: torch.Generator, projections: int) -> Tensor:
-            rgb = lab_to_rgb(current().lab(lab)).clamp(0, 1)  # as painted
-            out = rgb_to_lab(rgb)
-            distance = sliced_wasserstein(out[compared].T[None, :, :, None], styles, projections, draws)
-            structure = ssim(out[:, 0].reshape(1, height, width), photo_lightness)
-            spread = parted(rgb.T, first, second) if len(first) else torch.zeros(())
-            return distance + PENALTY * (F.relu(floor - structure) + F.relu(spread - bound))
-
-        def judged() -> tuple[float, Recoloring]:
-            """The objective on the same directions at every check, and a copy of the map."""
-            with torch.no_grad():
-                score = float(objective(torch.Generator().manual_seed(seed), JUDGE))
-                kept = current()
-                return score, Recoloring(kept.lightness, kept.hue.clone(), kept.matrix.clone(), self.mean_in, self.mean_out)
-
-        best = judged()  # the start: refining never returns a worse map by its own measure
-        for step in range(1, STEPS + 1):
-            loss = objective(generator, PROJECTIONS)
+        plain = painting.detach().float()
+        for _ in range(settings.map_steps):
+            loss = objective(current()(plain, dim=0))
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
             schedule.step()
-            if step % CHECK == 0:
-                best = min(best, judged(), key=lambda scored: scored[0])
-        return best[1]
-
-    def matched_tones(self, painting: Tensor, style: Tensor) -> Recoloring:
-        """This map with f the increasing map that carries ``painting``'s lightness quantiles onto
-        ``style``'s (1-D optimal transport, histogram matching), sampled at the knots; RGB (3, H, W)
-        and (3, h, w) in [0, 1]. :meth:`toward` it is displacement interpolation of the tones."""
-        own, their = (rgb_to_lab(x.detach().flatten(1).cpu().double(), dim=0)[0].sort().values for x in (painting, style))
-        rank = torch.searchsorted(own, torch.linspace(0, 1, KNOTS + 1, dtype=own.dtype)) / len(own)  # the CDF at the knots
-        tones = their[(rank * (len(their) - 1)).round().long()].float()
-        return Recoloring(tones, self.hue, self.matrix, self.mean_in, self.mean_out)
+        with torch.no_grad():
+            fitted = current()
+        return Recoloring(fitted.lightness, fitted.hue, fitted.matrix, self.mean_in, self.mean_out)
 
     def toward(self, other: Recoloring, share: float) -> Recoloring:
-        """The map ``share`` ∈ [0, 1] of the way from this one to ``other`` (same means), parameter by
-        parameter; f stays increasing."""
+        """The map ``share`` ∈ [0, 1] of the way from this one to ``other`` (same means), parameter
+        by parameter; f stays increasing."""
         def mix(a: Tensor, b: Tensor) -> Tensor:
             return (1 - share) * a + share * b
 
@@ -172,14 +295,10 @@ class Recoloring:
 
 
 def chroma_span(style: Tensor) -> Tensor:
-    """The projection (2, 2) onto the directions of chroma (a*, b*) in which the colours of ``style``
-    (3, h, w) vary by :data:`HUED` or more: the identity for a colourful style, zero for a grey one.
-
-    A sliced Wasserstein fit may otherwise tint the tones a grey style cannot match in lightness:
-    along a direction that mixes lightness and chroma, a hue makes up part of the lightness gap.
-    """
-    chroma = rgb_to_lab(style.detach().flatten(1).cpu().double(), dim=0)[1:]
-    values, vectors = torch.linalg.eigh(torch.cov(chroma))
+    """The projection (2, 2) onto the directions of chroma (a*, b*) in which the colours ``style``
+    (3, M, L*a*b* / 100) vary by :data:`HUED` or more: the identity for a colourful style, zero for
+    a grey one (a sliced fit may otherwise tint the tones a grey style cannot match in lightness)."""
+    values, vectors = torch.linalg.eigh(torch.cov(style[1:].double()))
     varied = values.clamp(min=0).sqrt() >= HUED
     if varied.all():
         return torch.eye(2)
