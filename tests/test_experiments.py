@@ -37,8 +37,8 @@ def compose_with_hydra(root: str, name: str, overrides: list[str]):
 
 def test_experiment_files_are_the_ones_tested():
     assert {p.stem for p in (CONF / "train" / "experiment").glob("*.yaml")} == set(SWEEPS)
-    assert {p.stem for p in (CONF / "paint" / "experiment").glob("*.yaml")} == {"ot_push", "ot_digits", "renderer_painting", "style_grid",
-                                                                                 "style_heldout"}  # style_*: tests/test_stylize.py
+    assert {p.stem for p in (CONF / "paint" / "experiment").glob("*.yaml")} == {"ot_push", "ot_digits", "renderer_painting", "style_dev",
+                                                                                 "style_grid", "style_heldout"}  # style_*: tests/test_stylize.py
 
 
 @pytest.mark.parametrize("experiment, size", [(name, size) for name in SWEEPS for size in ((32, 64) if "paper" not in name else (128,))])

@@ -266,6 +266,7 @@ def test_a_share_of_the_way_blends_two_maps(grey_to_colour):
     torch.testing.assert_close(half.lab(colours), (start.lab(colours) + fitted.lab(colours)) / 2)
 
 
+@pytest.mark.parametrize("name", ["tape", "watercolor"])
 def test_recoloring_strokes_changes_colours_alone(astronaut, name):
     brush = get_brush(name)
     strokes = brush.sample(16, torch.Generator().manual_seed(0))

@@ -58,7 +58,7 @@ def parted(image: Tensor, first: Tensor, second: Tensor) -> Tensor:
 
 
 def luminance_ssim(painting: Tensor, photo: Tensor) -> float:
-    """SSIM of the lightness L* (:mod:`nsp.style.color`) of ``painting`` and ``photo`` (same size),
+    """SSIM of the lightness L* (:mod:`nsp.colors`) of ``painting`` and ``photo`` (same size),
     with a Gaussian window (σ = 1.5), as ``nsp.painter.outputs.similarity`` compares colours."""
     if painting.shape != photo.shape:
         raise ValueError(f"luminance_ssim needs images of one size: got {tuple(painting.shape)} and "
