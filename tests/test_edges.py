@@ -118,8 +118,8 @@ def test_a_sweep_on_a_full_disk_ends_with_one_line_even_when_no_job_can_record(t
         code, err = run_cli("nsp.paint", ["-m", *PAINT_BASE, "seed=0,1", "hydra/launcher=basic", f"hydra.sweep.dir={tmp_path}"],
                             capsys, monkeypatch)  # in this process, where the disk is mocked
     assert code == FAILED and "Traceback" not in err
-    assert "error: 0_oilpaint: could not record its status (No space left on device)" in err
-    assert last_line(err).startswith("2 of 2 jobs failed (0_oilpaint, 1_oilpaint)")
+    assert "error: 0_astronaut_oilpaint: could not record its status (No space left on device)" in err
+    assert last_line(err).startswith("2 of 2 jobs failed (0_astronaut_oilpaint, 1_astronaut_oilpaint)")
 
 
 @pytest.fixture

@@ -3,10 +3,12 @@ import math
 import subprocess
 import sys
 from functools import partial
+from pathlib import Path
 
 import pytest
 import torch
 
+import nsp
 from nsp.brushes import BRUSHES, get_brush
 from nsp.config import CONF
 from nsp.engine import paint_canvas, render
@@ -21,6 +23,8 @@ from nsp.painter.placement import largest_errors, place_strokes
 from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
 from nsp.painter.schema import ScheduleConfig
 from nsp.painter.structure import orientation, structure_tensor
+
+PACKAGE = Path(nsp.__file__).parent  # nsp's own modules, wherever the checkout lies
 
 
 def patches(height: int = 32, width: int = 32) -> torch.Tensor:
@@ -452,8 +456,8 @@ class _Placed(torch.overrides.TorchFunctionMode):
             import traceback
 
             caller = traceback.extract_stack()[-2]
-            if "/nsp/" in caller.filename:
-                self.unplaced.add(f"{caller.filename.split('/nsp/')[-1]}:{caller.lineno}")
+            if Path(caller.filename).is_relative_to(PACKAGE):
+                self.unplaced.add(f"{Path(caller.filename).relative_to(PACKAGE)}:{caller.lineno}")
         return func(*args, **kwargs)
 
 

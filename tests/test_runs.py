@@ -57,6 +57,13 @@ def test_a_named_dir_that_holds_a_run_is_refused_before_anything_is_written(tmp_
     assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*")} == before
 
 
+def test_a_run_refused_at_start_leaves_no_dir_that_looks_like_a_run(tmp_path):
+    for name, args in (("nsp.train", ["trainer.accelerator=gpu"]), ("nsp.paint", ["image=/nonexistent.png"])):
+        run = command(name, *args, f"hydra.run.dir={tmp_path / name}")
+        assert run.wait(timeout=300) == 2 and run.stderr.read().startswith("error: ")
+        assert not (tmp_path / name).exists()
+
+
 def test_a_named_dir_is_claimed_so_two_runs_started_together_never_share_it(tmp_path):
     import os
 
@@ -224,4 +231,4 @@ def test_a_painting_reads_an_unquoted_colour_and_an_awkward_path(tmp_path):
 def test_the_sweep_flag_may_stand_anywhere_in_the_command_line(tmp_path):
     run = command("nsp.paint", *TINY_PAINT, "-m", "seed=0,1", "background=#a0522d", f"hydra.sweep.dir={tmp_path}")
     assert run.wait(timeout=300) == 0, run.stderr.read()
-    assert sorted(p.name for p in tmp_path.iterdir() if p.is_dir()) == ["0_oilpaint", "1_oilpaint"]
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_dir()) == ["0_astronaut_oilpaint", "1_astronaut_oilpaint"]  # each job: its image and brush

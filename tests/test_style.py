@@ -2,6 +2,8 @@
 colours, the shared recolouring and the measures of a stylized painting."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -25,6 +27,7 @@ from nsp.style import (
 )
 from nsp.colors import lab_to_rgb, rgb_to_lab
 from nsp.style.measures import HELD_OUT_SEED, NEAR, coherence, color_distance, luminance_ssim, texture_distance
+from nsp.style.features import TappedFeatures, chosen_backbone
 from nsp.style.recolor import KNOTS, STRETCH, Bounds, ColorSettings, Objective, chroma_span, gaussian_transport
 
 S = 48  # canvas side in pixels: small, so optimization tests stay fast on a CPU
@@ -100,8 +103,20 @@ def test_missing_vgg19_weights_give_one_clear_error(tmp_path, monkeypatch):
         vgg19_features(tmp_path / "nowhere.pth")
 
 
+def test_auto_is_vgg19_where_its_weights_are_else_random(tmp_path, monkeypatch, fake_vgg):
+    from torchvision.models import VGG19_Weights
+
+    assert hub_cache_path().name == Path(VGG19_Weights.IMAGENET1K_V1.url).name  # found without importing torchvision
+    monkeypatch.setattr(torch.hub, "get_dir", lambda: str(tmp_path))
+    assert chosen_backbone("auto") == "random" and chosen_backbone("vgg19") == "vgg19"
+    hub_cache_path().parent.mkdir()
+    torch.save(fake_vgg.state_dict(), hub_cache_path())
+    assert chosen_backbone("auto") == "vgg19" and chosen_backbone("auto", tmp_path / "nowhere.pth") == "random"
+    assert isinstance(StyleLoss(torch.rand(1, 3, 16, 16)).features, TappedFeatures)  # the default: auto
+
+
 def test_unknown_backbone_lists_the_choices():
-    with pytest.raises(ValueError, match="vgg19, random"):
+    with pytest.raises(ValueError, match="auto, vgg19, random"):
         StyleLoss(torch.rand(1, 3, 16, 16), backbone="resnet")
 
 

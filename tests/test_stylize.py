@@ -211,14 +211,18 @@ def test_color_mode_needs_no_network_weights_and_writes_style_png(tmp_path):
     assert canvas.startswith("#") and canvas != "#ffffff"  # the white canvas recoloured with the strokes
 
 
-def test_missing_vgg_weights_is_one_clear_error(tmp_path):
+def test_without_vgg_weights_the_default_backbone_is_random_and_says_so_while_vgg19_asked_for_is_one_clear_error(tmp_path):
     import os
 
     from PIL import Image
 
     Image.fromarray(skimage.data.coffee()).save(tmp_path / "coffee.png")
     env = dict(os.environ, TORCH_HOME=str(tmp_path / "empty"))
-    result = paint_cli(tmp_path / "run", f"style.image={tmp_path / 'coffee.png'}", env=env)
+    style = (f"style.image={tmp_path / 'coffee.png'}", "style.size=32", "style.steps=2")
+    result = paint_cli(tmp_path / "auto", *style, env=env)
+    assert result.returncode == 0, result.stderr
+    assert "style.backbone=auto: no VGG-19 weights here, so random features" in result.stdout
+    result = paint_cli(tmp_path / "vgg", *style, "style.backbone=vgg19", env=env)
     assert result.returncode != 0 and "Traceback" not in result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "VGG-19 weights not found" in lines[0] and "style.backbone=random" in lines[0]

@@ -41,9 +41,9 @@ def test_a_training_sweep_runs_every_job_past_a_bad_value(tmp_path):
 def test_a_parallel_painting_sweep_keeps_the_good_paintings_past_a_missing_image(tmp_path):
     done = sweep("nsp.paint", tmp_path, "image=chelsea,/nonexistent/photo.png", *TINY_PAINT, "hydra/launcher=joblib")
     assert done.returncode == 1 and "Traceback" not in done.stderr
-    assert "error: 1_oilpaint: image=/nonexistent/photo.png: no such file" in done.stderr
-    assert metrics(tmp_path / "0_oilpaint")["strokes"] == 8 and (tmp_path / "0_oilpaint" / "final.png").is_file()
-    failed = metrics(tmp_path / "1_oilpaint")
+    assert "error: 1_photo_oilpaint: image=/nonexistent/photo.png: no such file" in done.stderr
+    assert metrics(tmp_path / "0_chelsea_oilpaint")["strokes"] == 8 and (tmp_path / "0_chelsea_oilpaint" / "final.png").is_file()
+    failed = metrics(tmp_path / "1_photo_oilpaint")
     assert failed["status"] == "failed" and "no such file" in failed["error"]
 
 
@@ -56,7 +56,7 @@ def test_an_interrupted_parallel_sweep_keeps_each_jobs_painting_and_starts_no_ot
                            start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            preexec_fn=foreground)
     deadline = time.monotonic() + 180
-    while not all((tmp_path / job / "tensorboard").exists() for job in ("0_oilpaint", "1_oilpaint")):
+    while not all((tmp_path / job / "tensorboard").exists() for job in ("0_astronaut_oilpaint", "1_chelsea_oilpaint")):
         assert run.poll() is None and time.monotonic() < deadline, run.communicate()[1]
         time.sleep(0.5)
     time.sleep(10)  # each job past its first strokes, even with the whole suite running beside it
@@ -64,12 +64,12 @@ def test_an_interrupted_parallel_sweep_keeps_each_jobs_painting_and_starts_no_ot
     _, stderr = run.communicate(timeout=180)
     assert run.returncode == 130 and "Traceback" not in stderr
     assert stderr.strip().splitlines()[-1] == f"interrupted: each of the 3 jobs kept what it had; per job: python -m nsp.report {tmp_path}"
-    for job in ("0_oilpaint", "1_oilpaint"):
+    for job in ("0_astronaut_oilpaint", "1_chelsea_oilpaint"):
         assert metrics(tmp_path / job)["status"] == "interrupted"
         assert 0 < len(load_strokes(tmp_path / job / "strokes.json").strokes) < 20000
         assert (tmp_path / job / "final.png").is_file()
-    assert metrics(tmp_path / "2_oilpaint") == {"status": "interrupted", "error": "the sweep was interrupted before this job began"}
-    assert not (tmp_path / "2_oilpaint" / "strokes.json").exists()
+    assert metrics(tmp_path / "2_coffee_oilpaint") == {"status": "interrupted", "error": "the sweep was interrupted before this job began"}
+    assert not (tmp_path / "2_coffee_oilpaint" / "strokes.json").exists()
 
 
 def test_a_stopped_training_sweep_run_again_resumes_and_matches_a_sweep_never_stopped(tmp_path):

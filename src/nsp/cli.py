@@ -112,8 +112,11 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
         if isinstance(error, OSError) and error.errno not in REFUSED_WRITES:
             raise
         message = refused_write(error, out) if isinstance(error, OSError) else _one_line(error)
+        if stop is None and isinstance(error, (BadInput, InstantiationException)):
+            _unmade_run(out)
+            fail(message)
         if stop is None:
-            fail(message, BAD_INPUT if isinstance(error, (BadInput, InstantiationException)) else FAILED)
+            fail(message, FAILED)
         record(out, "failed", message)
         print(f"error: {out.name}: {message}", file=sys.stderr)
     except Exception as error:
@@ -141,6 +144,8 @@ class Sweeps(Callback):
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
+        for name in LAUNCHERS:
+            logging.getLogger(name).addFilter(_how_jobs_run)
         if "joblib" not in str(config.hydra.launcher.get("_target_", "")):
             return  # jobs run in this process: Ctrl-C interrupts the job itself
         stop = Path(config.hydra.sweep.dir) / STOPPED
@@ -172,6 +177,21 @@ class Sweeps(Callback):
             print(f"{len(failed)} of {len(jobs)} jobs failed ({', '.join(failed)}); the others finished. "
                   f"Why, per job: python -m nsp.report {sweep}", file=sys.stderr)
             sys.exit(FAILED)
+
+
+LAUNCHERS = ("hydra._internal.core_plugins.basic_launcher", "hydra_plugins.hydra_joblib_launcher._core")  # their loggers
+
+
+def _how_jobs_run(record: logging.LogRecord) -> bool:
+    """A launcher's first line, said plainly: how many jobs, and whether one at a time (Hydra's
+    basic launcher) or side by side (joblib's, whose own line lists its 13 settings)."""
+    message = record.getMessage()
+    if match := re.match(r"Launching (\d+) jobs locally", message):
+        record.msg, record.args = f"launching {counted(match[1], 'job')}, one at a time (hydra/launcher=joblib: side by side)", ()
+    elif match := re.match(r"Joblib\.Parallel\(n_jobs=(-?\d+).* is launching (\d+) jobs", message):
+        at_once = "one process per core" if match[1] == "-1" else f"{match[1]} processes"
+        record.msg, record.args = f"launching {counted(match[2], 'job')} side by side, {at_once}", ()
+    return True
 
 
 def _children() -> list[int] | None:
@@ -376,6 +396,14 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
         if error.errno not in REFUSED_WRITES:
             raise
         fail(f"{error.strerror}: {error.filename or 'a run file'}; free space or name another dir (hydra.run.dir, hydra.sweep.dir)", FAILED)
+
+
+def _unmade_run(out: Path) -> None:
+    """A single run refused a value before its work began: its dir goes, if it holds nothing but
+    what Hydra and :class:`RunDirs` put there (``.hydra/``, the log, the claim), so nothing looks
+    like a run."""
+    if out.is_dir() and all(p.name in (".hydra", CLAIM) or p.suffix == ".log" for p in out.iterdir()):
+        shutil.rmtree(out)
 
 
 def _unmade_sweep() -> None:

@@ -22,7 +22,7 @@ CONF = Path(__file__).parent / "conf"  # each command's YAML: conf/paint, conf/t
 
 
 BRUSH_NAMES = ("oilpaint", "watercolor", "markerpen", "tape")  # nsp.brushes.BRUSHES' keys (a test holds them equal)
-BACKBONES = ("vgg19", "random")  # style.backbone: the feature networks of nsp.style.features
+BACKBONES = ("auto", "vgg19", "random")  # style.backbone: the feature networks of nsp.style.features (auto: vgg19 where its weights are)
 MODES = ("full", "color")  # style.mode: what style transfer changes (nsp.painter.stylize)
 
 
@@ -82,6 +82,12 @@ def px(size: int) -> str:
     return f"{size}px"
 
 
+def image_name(image: str) -> str:
+    """``${image_name:IMAGE}``: a photo as part of a dir name: a built-in photo's name, a file's stem."""
+    return Path(image).stem
+
+
 OmegaConf.register_new_resolver("px", px, replace=True)
+OmegaConf.register_new_resolver("image_name", image_name, replace=True)
 OmegaConf.register_new_resolver("trained_renderers", trained_renderers, replace=True)
 OmegaConf.register_new_resolver("renderer_label", renderer_label, replace=True)

@@ -34,6 +34,8 @@ from nsp.painter.renderer import build_renderer
 from nsp.painter.stylize import stylize
 from nsp.signals import shielded
 from nsp.style import MIN_SIDE, StyleLoss, WeightsNotFound
+from nsp.style.features import chosen_backbone
+from nsp.style.recolor import ColorSettings
 from nsp.text import counted
 
 POSITIVE = ("strokes", "render_size", "work_size", "animation_size", "animation_frames", "renderer.softness",
@@ -109,6 +111,9 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None
                          pixel_bytes=STYLE_BYTES if cfg.style.mode == "full" else WORK_BYTES, noun="styled canvas")
             image = resize(image, cfg.style.size).to(device)
             if cfg.style.mode == "full":
+                if cfg.style.backbone == "auto":
+                    log.info("style.backbone=auto: VGG-19, its weights found" if chosen_backbone("auto", cfg.style.weights) == "vgg19"
+                             else "style.backbone=auto: no VGG-19 weights here, so random features (style.backbone=vgg19 says how to get them)")
                 style = StyleLoss(image[None], cfg.style.backbone, cfg.style.weights, cfg.seed).to(device)
     except (ValueError, WeightsNotFound) as error:
         raise BadInput(str(error)) from None
@@ -132,8 +137,9 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
     """Restyle the painted ``strokes`` (N, d) toward ``image`` (3, h, w), with full mode's style
     loss ``style``; logs ``style/*`` curves; returns new strokes, the canvas colour recoloured with
     them, and the seconds they took."""
-    steps = cfg.style.steps if cfg.style.mode == "full" else 0  # colour mode is one recolouring, no steps
-    with ProgressBar(steps, cfg.progress, "style steps" if steps else "recolouring") as bar:
+    color = cfg.style.mode == "color"
+    steps = ColorSettings().map_steps + ColorSettings().stroke_steps if color else cfg.style.steps
+    with ProgressBar(steps, cfg.progress, "recolouring steps" if color else "style steps") as bar:
         def log_step(step: int, losses: dict[str, float]) -> None:
             for name, value in losses.items():
                 writer.add_scalar(f"style/{name}", value, step)
@@ -142,7 +148,7 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
         strokes, background = stylize(painter.brush, strokes, resize(photo, cfg.style.size), image, painter.loss,
                                       instantiate(cfg.optimizer), loss=style, weight=cfg.style.weight, steps=cfg.style.steps,
                                       mode=cfg.style.mode, background=cfg.background, softness=cfg.renderer.softness,
-                                      seed=cfg.seed, callbacks=[log_step])
+                                      seed=cfg.seed, callbacks=[log_step], tick=lambda: bar.advance(1, "recolouring"))
     return strokes, background, bar.seconds
 
 

@@ -80,7 +80,7 @@ class StyleConfig:
     weight: float = 0.5  # β_sty (paper 0.5): colour mode gives up at most β/5 of the luminance SSIM for the style's colours; full: style loss weight
     steps: int = 200  # full mode's optimizer steps (paper 200); colour mode takes none
     size: int = 128  # long side of the canvas the style steps run on (CPU-friendly)
-    backbone: Backbone = Backbone.vgg19  # vgg19 (ImageNet weights, offline) or random (no weights needed)
+    backbone: Backbone = Backbone.auto  # vgg19 (ImageNet weights, offline), random (no weights), or auto: vgg19 where its weights are found
     weights: Optional[str] = None  # VGG-19 state dict; None: the torch hub cache
 
 

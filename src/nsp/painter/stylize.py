@@ -48,6 +48,7 @@ def stylize(
     seed: int = 0,
     color: ColorSettings = ColorSettings(),
     callbacks: Sequence[Callable[[int, dict[str, float]], None]] = (),
+    tick: Callable[[], None] | None = None,
 ) -> tuple[Tensor, str]:
     """Restyle ``strokes`` (N, d), a painting of ``target`` (3, H, W), in the style of the image
     ``style`` (3, h, w), all RGB in [0, 1].
@@ -60,7 +61,8 @@ def stylize(
     ``softness`` px wide (None: the brush's own).
     Returns the stylized strokes (N, d) in [0, 1] and the canvas colour ``background`` recoloured
     by the same map (``#rrggbb``); each callback gets (step, losses) after each step. ``seed`` seeds
-    the recolouring's draws; ``color`` holds its settings.
+    the recolouring's draws; ``color`` holds its settings; colour mode calls ``tick`` after each of its
+    fits' steps.
     """
     if mode not in MODES:
         raise ValueError(f"style.mode={mode}: expected one of {', '.join(MODES)}")
@@ -69,7 +71,7 @@ def stylize(
     if weight < 0:
         raise ValueError(f"style.weight={weight}: expected β_sty ≥ 0")
     if mode == "color":
-        return recolor(brush, strokes, target, style, weight, background, seed, color)
+        return recolor(brush, strokes, target, style, weight, background, seed, color, tick)
     _, height, width = target.shape
     with torch.no_grad():
         plain = paint_canvas(brush, strokes, height, width, background)

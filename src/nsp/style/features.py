@@ -38,11 +38,21 @@ class ImageNetNormalize(nn.Module):
         return (images - self.mean) / self.std
 
 
-def hub_cache_path() -> Path:
-    """Where torchvision keeps the ``VGG19_Weights.IMAGENET1K_V1`` file once downloaded."""
-    from torchvision.models import VGG19_Weights
+VGG19_FILE = "vgg19-dcbb9e9d.pth"  # torchvision's VGG19_Weights.IMAGENET1K_V1 file (a test holds them equal)
 
-    return Path(torch.hub.get_dir()) / "checkpoints" / os.path.basename(VGG19_Weights.IMAGENET1K_V1.url)
+
+def hub_cache_path() -> Path:
+    """Where torchvision keeps the ``VGG19_Weights.IMAGENET1K_V1`` file once downloaded (found
+    without importing torchvision, which takes seconds)."""
+    return Path(torch.hub.get_dir()) / "checkpoints" / VGG19_FILE
+
+
+def chosen_backbone(backbone: str, weights: str | os.PathLike | None = None) -> str:
+    """The network ``style.backbone`` names: ``auto`` is ``vgg19`` where its ``weights`` file (or
+    the hub cache's) exists, else ``random``; the others as given."""
+    if backbone != "auto":
+        return backbone
+    return "vgg19" if (Path(weights) if weights is not None else hub_cache_path()).is_file() else "random"
 
 
 def _weights_file(weights: str | os.PathLike | None) -> Path:
@@ -158,7 +168,9 @@ def random_features(seed: int = 0, **kwargs) -> RandomFeatures:
 
 
 def feature_network(backbone: str, weights: str | os.PathLike | None = None, seed: int = 0) -> nn.Module:
-    """The ``style.backbone`` network: ``vgg19`` (reads ``weights``) or ``random`` (uses ``seed``)."""
+    """The ``style.backbone`` network: ``vgg19`` (reads ``weights``), ``random`` (uses ``seed``), or
+    ``auto``: the first where its weights are found (:func:`chosen_backbone`)."""
+    backbone = chosen_backbone(backbone, weights)
     if backbone == "vgg19":
         return vgg19_features(weights)
     if backbone == "random":

@@ -63,7 +63,7 @@ class StyleLoss(nn.Module):
     Args:
         image: the style image as used, (1, 3, H, W) in [0, 1]; Grams depend on the pattern's
             scale in pixels, so size it like the canvas.
-        backbone: ``vgg19`` or ``random`` (see :mod:`nsp.style.features`).
+        backbone: ``auto``, ``vgg19`` or ``random`` (see :func:`nsp.style.features.feature_network`).
         weights: VGG-19 state-dict path; ``None`` reads the torch hub cache.
         seed: the random backbone's filters.
     """
@@ -71,7 +71,7 @@ class StyleLoss(nn.Module):
     def __init__(
         self,
         image: Tensor,
-        backbone: str = "vgg19",
+        backbone: str = "auto",
         weights: str | os.PathLike | None = None,
         seed: int = 0,
     ):

@@ -94,10 +94,10 @@ class Bounds:
 class Objective:
     """What both fits lower: the sliced Wasserstein distance in L*a*b* / 100 between a painting's
     colours and ``style``'s (3, h, w), relative to the ``plain`` painting's, plus :data:`PENALTY` ×
-    the :class:`Bounds`' excess."""
+    the :class:`Bounds`' excess; ``tick`` is called at each step (a progress bar)."""
 
-    def __init__(self, plain: Tensor, style: Tensor, bounds: Bounds, seed: int):
-        self.bounds, self.seed = bounds, seed
+    def __init__(self, plain: Tensor, style: Tensor, bounds: Bounds, seed: int, tick: Callable[[], None] | None = None):
+        self.bounds, self.seed, self.tick = bounds, seed, tick
         self.generator = torch.Generator().manual_seed(seed + 1)
         self.style = rgb_to_lab(style.float(), dim=0).flatten(1)
         self.sampled = self.style[:, torch.randperm(self.style.shape[1], generator=self.generator)[:PIXELS]]
@@ -108,6 +108,8 @@ class Objective:
         lab = rgb_to_lab(image.flatten(1), dim=0)
         pixels = lab[:, torch.randperm(lab.shape[1], generator=self.generator)[:PIXELS]]
         distance = sliced_wasserstein(pixels[None, :, :, None], self.sampled[None, :, :, None], PROJECTIONS, self.generator)
+        if self.tick is not None:
+            self.tick()
         return distance / self.scale + PENALTY * self.bounds.excess(image, self.generator)
 
     def distance(self, image: Tensor) -> float:
@@ -119,24 +121,25 @@ class Objective:
 
 
 def recolor(brush: Brush, strokes: Tensor, photo: Tensor, style: Tensor, weight: float, background: str,
-            seed: int, settings: ColorSettings = ColorSettings()) -> tuple[Tensor, str]:
+            seed: int, settings: ColorSettings = ColorSettings(), tick: Callable[[], None] | None = None) -> tuple[Tensor, str]:
     """Colour mode: ``strokes`` (N, d), a painting of ``photo`` (3, H, W) on ``background``,
     recoloured toward ``style`` (3, h, w), all RGB in [0, 1], β_sty = ``weight`` (0: the shared
     map's start alone, which keeps the lightness). Returns the strokes, shapes bit for bit, and the
-    canvas colour as ``#rrggbb``; the fits' draws are seeded by ``seed``."""
+    canvas colour as ``#rrggbb``; the fits' draws are seeded by ``seed``, and each of their steps calls ``tick``."""
     height, width = photo.shape[1:]
     with torch.no_grad():
         plain = paint_canvas(brush, strokes, height, width, background)
-    shared = shared_map(brush, strokes, plain, photo, style, weight, background, seed, settings)
+    shared = shared_map(brush, strokes, plain, photo, style, weight, background, seed, settings, tick)
     x, canvas = shared.strokes(brush, strokes), shared(torch.tensor(parse_color(background)))
     if weight > 0 and settings.stroke_steps:
         bounds = Bounds(plain, photo, weight, settings, seed)
-        x, canvas = refine_strokes(brush, x, canvas, style, Objective(plain, style, bounds, seed), settings)
+        x, canvas = refine_strokes(brush, x, canvas, style, Objective(plain, style, bounds, seed, tick), settings)
     return x, hex_color(canvas)
 
 
 def shared_map(brush: Brush, strokes: Tensor, plain: Tensor, photo: Tensor, style: Tensor, weight: float,
-               background: str, seed: int, settings: ColorSettings = ColorSettings()) -> Recoloring:
+               background: str, seed: int, settings: ColorSettings = ColorSettings(),
+               tick: Callable[[], None] | None = None) -> Recoloring:
     """The map shared by every stroke of ``strokes`` (N, d) and by the canvas colour: fitted on
     the ``plain`` painting's pixels (3, H, W, of ``photo`` on ``background``), then the largest
     share of the way from its start that keeps the :class:`Bounds` on the painted strokes. ``weight``
@@ -145,7 +148,7 @@ def shared_map(brush: Brush, strokes: Tensor, plain: Tensor, photo: Tensor, styl
     if weight == 0:
         return start
     bounds = Bounds(plain, photo, weight, settings, seed)
-    objective = Objective(plain, style, bounds, seed)
+    objective = Objective(plain, style, bounds, seed, tick)
     fitted = start.refine(plain, objective, settings)
     height, width = plain.shape[1:]
 
