@@ -5,6 +5,7 @@ import os
 import re
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import pytest
 from matplotlib.figure import Figure
 from torch.utils.tensorboard import SummaryWriter
@@ -67,7 +68,7 @@ def test_renderer_sweep_report_is_exactly_the_expected_tables(renderer_sweep):
         "| dual_raster | 20.50 | 24.02 | 22.25 | 25.77 |\n"
         "| dual | 23.00 | 26.98 | failed | 31.39 |\n"
     ) in report
-    assert "| dual_raster | +2.50 ± 0.00 |\n" in report  # dual's margin, where both ran: no watercolor column
+    assert "| dual_raster | +2.50 |\n" in report  # dual's margin, one seed (no ± 0.00), where both ran: no watercolor column
     assert (
         "| job | renderer | brush | status | val/psnr | steps | seconds |\n"
         "|---:|---|---|---|---:|---:|---:|\n"
@@ -113,10 +114,13 @@ def test_learning_rate_study_scores_validation_and_chooses_each_renderers_rate(t
     assert "| pxlshuffle | 17.25 | 11.25 | 0.001 |" in report and "| dual | 20.50 | 21.25 | 0.003 |" in report
 
 
-def test_a_sweep_too_short_for_curves_still_gets_a_bar_chart(tmp_path):
+def test_a_sweep_that_validated_once_gets_its_validation_points_and_bars_from_zero(tmp_path, monkeypatch):
     fake_job(tmp_path, 0, ["renderer=dcgan", "brush=tape"], train_metrics("dcgan", "tape", 12.0), [(30, 12.0)])
     fake_job(tmp_path, 1, ["renderer=dual", "brush=tape"], train_metrics("dual", "tape", 13.0), [(30, 13.0)])
-    assert [p.name for p in write_report(tmp_path)[2:]] == ["final_val_psnr.png"]
+    limits = []
+    monkeypatch.setattr(plt.Axes, "set_xlim", lambda ax, *args, **kw: limits.append(args))
+    assert [p.name for p in write_report(tmp_path)[2:]] == ["val_psnr.png", "final_val_psnr.png"]
+    assert (0.0, 13.0 * 1.15) in limits  # the bars start at zero: a 1-dB gap does not fill the plot
 
 
 def test_metrics_with_status_failed_is_reported_failed(tmp_path):
@@ -199,7 +203,7 @@ def test_columns_that_say_nothing_are_left_out_and_each_metric_has_one_format(tm
     fake_job(tmp_path, 4, ["renderer=dual_raster", "brush=tape", "seed=0", *common], train_metrics("dual_raster", "tape", 15.0))
     report = write_report(tmp_path)[0].read_text()
     # Shared by every job: the overrides, then metrics (the seed is an override; job 4 has no size); no status column.
-    assert "Every job: `trainer.max_steps=100` `steps=100`\n" in report
+    assert "Every job: `trainer.max_steps=100`\n" in report  # not again as the steps it ran
     jobs = tables(report)[0]
     assert jobs[0] == ["job", "renderer", "brush", "seed", "val/psnr", "seconds", "size", "lr", "test/psnr", "ssim"]
     assert jobs[1:3] == [["0", "dcgan", "watercolor", "0", "20.50", "12.3", "32", "0.003", "20.00", "0.5000"],
@@ -233,7 +237,7 @@ def test_margins_also_when_dual_jobs_come_from_another_experiment(tmp_path):
         fake_job(tmp_path, num, [f"experiment={experiment}", f"renderer={renderer}", "brush=oilpaint"],
                  train_metrics(renderer, "oilpaint", 1.0, **{"test/psnr": score}))
     report = write_report(tmp_path)[0].read_text()
-    assert "| renderer_ablation | dual_raster |" in report and "| dual_raster | +2.50 ± 0.00 |" in report
+    assert "| renderer_ablation | dual_raster |" in report and "| dual_raster | +2.50 |" in report
 
 
 def test_jobs_of_an_aborted_sweep_that_never_began_are_rows_too(tmp_path):

@@ -152,12 +152,14 @@ def test_train_writes_metrics_checkpoints_and_tensorboard(tmp_path, monkeypatch,
     # (4 steps) and, once, at the last step, mid-epoch; the final scores in HPARAMS with the run's settings.
     assert len(list((tmp_path / "tensorboard").glob("events.out.tfevents.*"))) == 1
     events = EventAccumulator(str(tmp_path / "tensorboard"), size_guidance={"scalars": 0, "images": 0}).Reload()
-    assert set(events.Tags()["scalars"]) == {"train/loss", "lr/Adam", "val/loss", "val/psnr", "val/psnr_fg", "val/psnr_alpha",
+    assert set(events.Tags()["scalars"]) == {"train/loss", "train/grad_norm", "train/strokes_per_s", "lr/Adam", "val/loss", "val/psnr", "val/psnr_fg", "val/psnr_alpha",
                                              "test/loss", "test/psnr", "test/psnr_fg", "test/psnr_alpha"}
     assert [e.step for e in events.Scalars("val/psnr")] == [4, 8, 10]
     assert events.Scalars("val/psnr")[-1].value == pytest.approx(metrics["val/psnr"], abs=1e-3)
     assert [e.step for e in events.Scalars("test/psnr")] == [10]
     assert events.Tags()["images"] == ["val/rows_true_fg_pred_fg_true_alpha_pred_alpha"]
+    assert all(e.value > 0 for e in events.Scalars("train/strokes_per_s") + events.Scalars("train/grad_norm"))
+    assert "max_steps: 10" in events.Tensors("config/text_summary")[0].tensor_proto.string_val[0].decode()  # TEXT: the config
     assert [e.step for e in events.Images("val/rows_true_fg_pred_fg_true_alpha_pred_alpha")] == [4, 8, 10]
     settings, final = hparams(events)
     assert settings == {"renderer": "dcgan", "brush": "oilpaint", "size": 32, "channel_mult": 0.125, "batch_size": 8,

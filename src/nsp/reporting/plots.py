@@ -1,8 +1,8 @@
 """Plots of a multirun, a panel per brush and a line or bar per setting (its swept choices but the
 seed, named ``key=value``):
 
-- curves: every TensorBoard scalar that some job logged at two steps or more, the mean over seeds
-  with their range shaded;
+- curves: every TensorBoard scalar that some job logged at two steps or more (validation scores at
+  one, marked), the mean over seeds with their range shaded;
 - bars: the headline metric at the end, mean over seeds with ± std error bars, drawn for every sweep
   that has one (so a sweep too short for curves still gets a picture).
 """
@@ -39,8 +39,10 @@ def settings(jobs: list[Job], panel) -> dict[str, list[Job]]:
 
 
 def curve_tags(jobs: list[Job]) -> list[str]:
-    """Scalar tags with at least two points in some job (single points are final values, in the tables)."""
-    tags = dict.fromkeys(tag for job in jobs for tag, points in job.curves.items() if len(points) > 1)
+    """Scalar tags with at least two points in some job, and the validation scores however few (a short
+    run validates once); other single points are final values, in the tables."""
+    tags = dict.fromkeys(tag for job in jobs for tag, points in job.curves.items()
+                         if len(points) > 1 or (points and tag.startswith("val/")))
     return [tag for tag in tags if tag not in SKIPPED]
 
 
@@ -62,7 +64,7 @@ def plot_tag(jobs: list[Job], tag: str, path: Path) -> None:
             values = np.array([[run[s] for s in steps] for run in runs])
             complete = all(job.status == "completed" for job in group)
             line, = ax.plot(steps, values.mean(0), label=name + ("" if complete else " (not all completed)"),
-                            linestyle="-" if complete else "--")
+                            linestyle="-" if complete else "--", marker="o" if len(steps) < 3 else None)
             if len(runs) > 1:
                 ax.fill_between(steps, values.min(0), values.max(0), color=line.get_color(), alpha=0.2, linewidth=0)
         ax.set_title(f"{PANEL}={panel}" if panel is not None else tag)
@@ -99,9 +101,9 @@ def plot_bars(jobs: list[Job], metric: str, path: Path) -> None:
             low, high = min(low, np.nanmin(means)), max(high, np.nanmax(means + errors))
     axes[0][0].set_yticks(range(len(names)), names, fontsize=8)
     axes[0][0].invert_yaxis()  # first setting on top, as in the tables
-    if np.isfinite(low):  # PSNRs differ by a few dB on top of ~20: start the axis near the lowest bar
+    if np.isfinite(high):  # bars from zero, so their lengths compare; the numbers beside them tell the gaps
         for ax in axes[0]:
-            ax.set_xlim(low - 0.15 * (high - low + 1), high + 0.25 * (high - low + 1))
+            ax.set_xlim(min(0.0, low), 1.15 * high if high > 0 else None)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -67,13 +67,15 @@ def job_rows(jobs: list[Job]) -> tuple[list[str], list[list]]:
 def shown_jobs(jobs: list[Job]) -> tuple[list[str], list[list], dict[str, str]]:
     """The job table as report.md shows it, each metric in its format, and the metrics it leaves out
     (name -> value, for the "Every job" line) but those an override already names (``seed``, ``lr``
-    of ``model.optimizer.lr``).
+    of ``model.optimizer.lr``, ``steps`` equal to ``trainer.max_steps``).
 
     Left out: a status every job shares (the count of jobs says it) and, given two jobs or more, a
     metric every job shares.
     """
     header, rows = job_rows(jobs)
     metrics, overridden = set(metric_keys(jobs)), {key.rsplit(".", 1)[-1] for job in jobs for key in job.overrides}
+    overridden |= {metric for metric in metrics for job in jobs for key, value in job.overrides.items()  # steps of max_steps
+                   if key.endswith(metric) and str(job.metrics.get(metric)) == str(value)}
     shared, kept = {}, []
     for i, name in enumerate(header):
         values = {row[i] for row in rows}
@@ -186,7 +188,7 @@ def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
         for brush in brushes:
             dual, theirs = scores(DUAL, brush), scores(other, brush)
             paired = Stat([dual[s] - theirs[s] for s in dual if s in theirs])
-            row.append(f"{paired.mean:+.2f} ± {paired.std:.2f}" if paired.values else None)
+            row.append(("+" if paired.mean >= 0 else "") + str(paired) if paired.values else None)
         rows.append(row)
     return header, rows
 

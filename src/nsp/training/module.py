@@ -1,12 +1,14 @@
 """The Lightning wrapper that trains any neural renderer against the vector engine."""
 from __future__ import annotations
 
+import time
 from typing import Any, Callable, Optional
 
 import pytorch_lightning as L
 import torch
 import torch.nn.functional as F
 from pytorch_lightning.loggers import TensorBoardLogger
+from pytorch_lightning.utilities import grad_norm
 from torch import Tensor
 from torchmetrics.image import PeakSignalNoiseRatio
 from torchvision.utils import make_grid
@@ -46,6 +48,7 @@ class RendererModule(L.LightningModule):
         self.optimizer, self.scheduler, self.scheduler_interval = optimizer, scheduler, scheduler_interval
         self.psnr_fg = PeakSignalNoiseRatio(data_range=1.0)
         self.psnr_alpha = PeakSignalNoiseRatio(data_range=1.0)
+        self.last_batch: float | None = None  # when the last training batch began (train/strokes_per_s)
 
     def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:
         """(B, d) -> foreground (B, 3, S, S), alpha (B, 1, S, S)."""
@@ -61,6 +64,17 @@ class RendererModule(L.LightningModule):
         loss, _, _ = self.loss(batch)
         self.log("train/loss", loss, prog_bar=True)
         return loss
+
+    def on_train_batch_start(self, batch, batch_idx: int) -> None:
+        """Logs ``train/strokes_per_s``, from one batch's start to the next's (rendering the strokes
+        included). Lightning's ThroughputMonitor would chart a dozen running counts per stage instead."""
+        now = time.perf_counter()
+        if self.last_batch is not None:
+            self.log("train/strokes_per_s", len(batch[0]) / (now - self.last_batch))
+        self.last_batch = now
+
+    def on_before_optimizer_step(self, optimizer) -> None:
+        self.log("train/grad_norm", grad_norm(self, norm_type=2)["grad_2.0_norm_total"])  # a spike before a loss one
 
     def validation_step(self, batch, batch_idx: int) -> None:
         self.score(batch, batch_idx, "val")

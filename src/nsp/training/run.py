@@ -154,6 +154,8 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
         scheduler_interval=str(cfg.model.scheduler_interval),
     )
     logger = RunLogger(out, name="tensorboard", version="", default_hp_metric=False)
+    config = OmegaConf.to_yaml(OmegaConf.masked_copy(cfg, [key for key in cfg if key != "hydra"]), resolve=True)
+    logger.experiment.add_text("config", "    " + config.replace("\n", "\n    "))  # TensorBoard's TEXT: the run's config
     checkpoints = out / "checkpoints"
     last_validation, stop = ValidateLastStep(), StopBetweenSteps()
     callbacks = [
