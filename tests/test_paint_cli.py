@@ -15,8 +15,8 @@ from omegaconf import OmegaConf
 from PIL import Image, ImageSequence
 
 from nsp.brushes import BRUSHES
-from nsp.io.strokes import load_strokes
 from nsp.errors import BadInput
+from nsp.io.strokes import load_strokes
 from nsp.painter.run import paint
 from nsp.painter.schema import PaintConfig  # noqa: F401  (registers ``paint_schema`` and the ``brush`` group)
 
@@ -193,6 +193,18 @@ def test_the_neural_renderer_needs_a_checkpoint_of_the_same_brush(photo, tmp_pat
     metrics = paint(config(f"image={photo}", "brush=watercolor", "renderer=neural", f"renderer.checkpoint={checkpoint}",
                            f"output_dir={tmp_path / 'neural'}", *TINY))
     assert metrics["strokes"] == 12
+
+
+def test_a_trained_renderer_paints_with_its_own_brush_unless_another_is_named(tmp_path):
+    checkpoint = save_checkpoint(tmp_path / "watercolor.ckpt", "watercolor")
+    small = ["strokes=4", "work_size=32", "render_size=48", "animation_size=32", "progress=false", "renderer=neural",
+             f"renderer.checkpoint={checkpoint}"]
+    result = run(*small, f"hydra.run.dir={tmp_path / 'own'}", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith("painting astronaut with 4 strokes of the checkpoint's brush…")
+    assert load_strokes(tmp_path / "own" / "strokes.json").brush.name == "watercolor"
+    result = run(*small, "brush=oilpaint", f"hydra.run.dir={tmp_path / 'named'}", cwd=tmp_path)
+    assert result.returncode == 2 and "renders watercolor strokes, not brush=oilpaint" in result.stderr
 
 
 def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:

@@ -42,6 +42,11 @@ def check_checkpoint(path, renderer: dict, brush: str) -> None:
 OPTIONS = {"size": "model.size", "channel_mult": "model.channel_mult"}  # renderer keys a training run sets as model.*
 
 
+def checkpoint_brush(path) -> str:
+    """The brush whose strokes the renderer in checkpoint ``path`` learned (:class:`BadInput` if it is none)."""
+    return read_checkpoint(path)["hyper_parameters"]["brush"]
+
+
 def load_renderer(path, map_location="cpu") -> tuple[nn.Module, str, int]:
     """The renderer saved in a checkpoint of ``python -m nsp.train``, in eval mode, its brush and size.
 
