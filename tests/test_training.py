@@ -124,11 +124,13 @@ def compose_train(tmp_path: Path, *overrides: str):
 
 
 def hparams(events: EventAccumulator) -> tuple[dict, list[str]]:
-    """The HPARAMS entry of a run's events: its settings and the tags of its metrics."""
+    """The HPARAMS entry of a run's events: its settings, in the order the tab lists them, and the tags of its metrics."""
     content = {tag: HParamsPluginData.FromString(data) for tag, data in events.PluginTagToContent("hparams").items()}
     settings = content["_hparams_/session_start_info"].session_start_info.hparams
-    metrics = content["_hparams_/experiment"].experiment.metric_infos
-    return {key: value.string_value or value.number_value for key, value in settings.items()}, [m.name.tag for m in metrics]
+    experiment = content["_hparams_/experiment"].experiment
+    order = [info.name for info in experiment.hparam_infos]  # as the HPARAMS tab lists (and ticks) them
+    return ({key: settings[key].string_value or settings[key].number_value for key in order},
+            [m.name.tag for m in experiment.metric_infos])
 
 
 def test_train_writes_metrics_checkpoints_and_tensorboard(tmp_path, monkeypatch, capsys):
@@ -162,6 +164,7 @@ def test_train_writes_metrics_checkpoints_and_tensorboard(tmp_path, monkeypatch,
     assert "max_steps: 10" in events.Tensors("config/text_summary")[0].tensor_proto.string_val[0].decode()  # TEXT: the config
     assert [e.step for e in events.Images("val/rows_true_fg_pred_fg_true_alpha_pred_alpha")] == [4, 8, 10]
     settings, final = hparams(events)
+    assert list(settings.items())[:5] == [("renderer", "dcgan"), ("brush", "oilpaint"), ("seed", 0), ("lr", 3e-3), ("size", 32)]
     assert settings == {"renderer": "dcgan", "brush": "oilpaint", "size": 32, "channel_mult": 0.125, "batch_size": 8,
                         "epoch_size": 32, "max_steps": 10, "lr": 3e-3, "lr_schedule": "CosineAnnealingLR", "seed": 0}
     assert final == ["val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha"]

@@ -250,11 +250,12 @@ def _finish(trainer: L.Trainer, logger: RunLogger, cfg: DictConfig, scores, star
 
 
 def _settings(cfg: DictConfig) -> dict:
-    """The run's key settings, as the HPARAMS tab lists them."""
+    """The run's key settings, as the HPARAMS tab lists them: TensorBoard ticks the first five, so
+    those are what nsp's studies vary (renderer, brush, seed, rate, size)."""
     scheduler = cfg.model.scheduler
     return {
-        "renderer": str(cfg.renderer.name), "brush": cfg.brush.name, "size": cfg.model.size, "channel_mult": cfg.model.channel_mult,
-        "batch_size": cfg.data.batch_size, "epoch_size": cfg.data.epoch_size, "max_steps": cfg.trainer.max_steps,
-        "lr": cfg.model.optimizer.get("lr"), "lr_schedule": scheduler._target_.rsplit(".", 1)[-1] if scheduler else "constant",
-        "seed": cfg.seed,
+        "renderer": str(cfg.renderer.name), "brush": cfg.brush.name, "seed": cfg.seed, "lr": cfg.model.optimizer.get("lr"),
+        "size": cfg.model.size, "max_steps": cfg.trainer.max_steps,
+        "lr_schedule": scheduler._target_.rsplit(".", 1)[-1] if scheduler else "constant",
+        "channel_mult": cfg.model.channel_mult, "batch_size": cfg.data.batch_size, "epoch_size": cfg.data.epoch_size,
     }
