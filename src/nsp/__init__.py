@@ -12,3 +12,26 @@ if "OMP_WAIT_POLICY" not in os.environ:
     os.environ.setdefault("GOMP_SPINCOUNT", "10000")  # libgomp: overrides PASSIVE's 0
 
 __version__ = "0.1.0"
+
+
+def paint(image, **options):
+    """Paint ``image`` with vector strokes: :func:`nsp.api.paint` (imported here on first use, so
+    ``import nsp`` stays instant). ``python -m nsp.paint`` is the command; a program that imports the
+    module ``nsp.paint`` itself rebinds this name to it: call :func:`nsp.api.paint` there."""
+    from nsp.api import paint as api
+
+    return api(image, **options)
+
+
+def load(path, metrics=None):
+    """A painting from its ``strokes.json``: :func:`nsp.api.load`."""
+    from nsp.api import load as api
+
+    return api(path, metrics)
+
+
+def train(**options):
+    """Train a neural renderer; its metrics: :func:`nsp.api.train` (``python -m nsp.train`` is the command)."""
+    from nsp.api import train as api
+
+    return api(**options)

@@ -15,6 +15,8 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import MISSING, DictConfig
 
 from nsp.cli import INTERRUPTED, command, run_job
+from nsp.config import BrushConfig
+from nsp.painter.schema import PaintConfig, follows_checkpoint  # config only: no torch
 from nsp.text import counted
 
 log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.log
@@ -22,22 +24,14 @@ log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.
 TEXT = ("image", "background", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
 
 def main(cfg: DictConfig) -> float | None:
-    chosen = {o.lstrip("+~").split("=", 1)[0].split(".")[0] for o in HydraConfig.get().overrides.task}
-    follows = cfg.renderer.name == "neural" and cfg.renderer.checkpoint is not None and "brush" not in chosen
+    named = "brush" in {o.lstrip("+~").split("=", 1)[0].split(".")[0] for o in HydraConfig.get().overrides.task}
     if cfg.task is None:  # the first line, before the work's modules load (seconds)
-        what = f"{cfg.strokes} strokes of the checkpoint's brush" if follows else counted(cfg.strokes, cfg.brush.name + " stroke")
+        what = f"{cfg.strokes} strokes of the checkpoint's brush" if follows_checkpoint(cfg, named) else counted(cfg.strokes, cfg.brush.name + " stroke")
         log.info(f"painting {cfg.image} with {what}…")
     import torch
     from hydra.utils import instantiate
 
     from nsp.painter.run import paint
-    from nsp.renderers.checkpoint import checkpoint_brush
-
-    def painted(cfg: DictConfig) -> dict:
-        """The painting, with a trained renderer's own brush unless the command line named one."""
-        if follows:
-            cfg.brush.name = checkpoint_brush(cfg.renderer.checkpoint)
-        return paint(cfg)
 
     if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits, renderer_painting)
         if cfg.threads:
@@ -47,7 +41,7 @@ def main(cfg: DictConfig) -> float | None:
             log.info(f"{cfg.output_dir}: " + ", ".join(f"{key} {value}" for key, value in metrics.items()))
         return None if metrics is None else metrics.get("psnr", 0.0)
     try:
-        metrics = run_job(cfg, painted)  # its last line tells what was painted, how well, how fast, where
+        metrics = run_job(cfg, lambda cfg: paint(cfg, brush_named=named))  # its last line tells what was painted, how well, how fast, where
     except KeyboardInterrupt:
         kept = [name for name in ("strokes.json", "final.png") if (Path(cfg.output_dir) / name).is_file()]
         print(f"interrupted: {' and '.join(kept)} of what was painted in {cfg.output_dir}" if kept else
@@ -57,10 +51,7 @@ def main(cfg: DictConfig) -> float | None:
 
 
 def schema() -> object:
-    """The structured config the command line is checked against (registers ``paint_schema``)."""
-    from nsp.config import BrushConfig
-    from nsp.painter.schema import PaintConfig
-
+    """The structured config the command line is checked against (importing it registered ``paint_schema``)."""
     return PaintConfig(brush=BrushConfig(MISSING))
 
 

@@ -31,6 +31,8 @@ from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, write_vector_files
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import build_renderer
+from nsp.painter.schema import follows_checkpoint
+from nsp.renderers.checkpoint import checkpoint_brush
 from nsp.painter.stylize import stylize
 from nsp.signals import shielded
 from nsp.style import MIN_SIDE, StyleLoss, WeightsNotFound
@@ -46,10 +48,11 @@ MIN_WORK_SIZE = 16  # the coarsest canvas strokes are optimized on, in pixels
 log = logging.getLogger(__name__)
 
 
-def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None, StyleLoss | None]:
+def prepare(cfg: DictConfig, photo: torch.Tensor | None = None) -> tuple[Painter, torch.Tensor, torch.Tensor | None, StyleLoss | None]:
     """Check every input; build the painter, the photo (3, H, W), the style image (3, h, w) and
     full mode's style loss (``None`` without ``style.image``; the loss ``None`` in colour mode, which
-    needs no feature network); writes nothing.
+    needs no feature network); writes nothing. ``photo`` (3, H, W) in [0, 1], if given, is painted
+    instead of ``cfg.image`` (which then only names it).
 
     Raises :class:`BadInput` naming the value and what is valid.
     """
@@ -85,8 +88,11 @@ def prepare(cfg: DictConfig) -> tuple[Painter, torch.Tensor, torch.Tensor | None
     try:
         parse_color(cfg.background)
         brush = get_brush(cfg.brush.name, cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto)
-        photo = load_image(cfg.image, max_side=max(cfg.work_size, cfg.render_size, SCORE_SIZE,
-                                                     cfg.style.size if cfg.style.image else 0))
+        largest = max(cfg.work_size, cfg.render_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0)
+        if photo is None:
+            photo = load_image(cfg.image, max_side=largest)
+        elif max(photo.shape[-2:]) > largest:
+            photo = resize(photo, largest)
         check_canvas(*long_side(*photo.shape[-2:], cfg.work_size), "work_size", cover=0, pixel_bytes=WORK_BYTES,
                      noun="working canvas")
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
@@ -152,15 +158,18 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
     return strokes, background, bar.seconds
 
 
-def paint(cfg: DictConfig) -> dict:
-    """Paint ``cfg.image``; write the painting's files into ``cfg.output_dir``; return the metrics
-    (``seconds``: the whole run, the checks and files included).
+def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool = True) -> dict:
+    """Paint ``cfg.image`` (or ``photo``, as :func:`prepare` takes it); write the painting's files into
+    ``cfg.output_dir``; return the metrics (``seconds``: the whole run, the checks and files included).
+    Unless ``brush_named``, a trained renderer paints with its checkpoint's brush (:func:`follows_checkpoint`).
 
     Interrupted (Ctrl-C, SIGTERM) or failing part-way, it still writes ``strokes.json`` and
     ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises.
     """
     start = time.perf_counter()
-    painter, photo, image, style = prepare(cfg)
+    if follows_checkpoint(cfg, brush_named):
+        cfg.brush.name = checkpoint_brush(cfg.renderer.checkpoint)
+    painter, photo, image, style = prepare(cfg, photo)
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
     out = Path(cfg.output_dir)

@@ -116,3 +116,9 @@ class PaintConfig:
 
 
 ConfigStore.instance().store(name="paint_schema", node=PaintConfig)
+
+
+def follows_checkpoint(cfg: Any, brush_named: bool) -> bool:
+    """Whether a painting of ``cfg`` takes its brush from ``renderer.checkpoint`` (a trained renderer
+    paints the brush it learned), ``brush_named`` saying whether the caller named a brush."""
+    return cfg.renderer.name == "neural" and cfg.renderer.checkpoint is not None and not brush_named
