@@ -38,6 +38,7 @@ bench: setup
 	$(BIN)/python benchmarks/training.py
 	$(BIN)/python benchmarks/painter.py --photos astronaut --strokes 500  # the full grid: no options (hours on 2 cores)
 	$(BIN)/python benchmarks/help.py
+	$(BIN)/python benchmarks/api.py
 
 clean:
 	rm -rf $(VENV) outputs/demo .pytest_cache
