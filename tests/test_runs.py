@@ -59,9 +59,12 @@ def test_a_named_dir_that_holds_a_run_is_refused_before_anything_is_written(tmp_
 
 def test_a_run_refused_at_start_leaves_no_dir_that_looks_like_a_run(tmp_path):
     for name, args in (("nsp.train", ["trainer.accelerator=gpu"]), ("nsp.paint", ["image=/nonexistent.png"])):
-        run = command(name, *args, f"hydra.run.dir={tmp_path / name}")
+        run = command(name, *args, cwd=tmp_path)  # into its default dir, outputs/<command>/<time>_…
         assert run.wait(timeout=300) == 2 and run.stderr.read().startswith("error: ")
-        assert not (tmp_path / name).exists()
+        assert not list((tmp_path / "outputs" / name.split(".")[1]).iterdir())
+    named = tmp_path / "mine"
+    named.mkdir()  # a dir the user named may have been theirs before: it stays
+    assert command("nsp.paint", "image=/nonexistent.png", f"hydra.run.dir={named}").wait(timeout=300) == 2 and named.is_dir()
 
 
 def test_a_named_dir_is_claimed_so_two_runs_started_together_never_share_it(tmp_path):

@@ -399,10 +399,11 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
 
 
 def _unmade_run(out: Path) -> None:
-    """A single run refused a value before its work began: its dir goes, if it holds nothing but
-    what Hydra and :class:`RunDirs` put there (``.hydra/``, the log, the claim), so nothing looks
-    like a run."""
-    if out.is_dir() and all(p.name in (".hydra", CLAIM) or p.suffix == ".log" for p in out.iterdir()):
+    """A single run refused a value before its work began: its default (time-stamped) dir goes, if
+    it holds nothing but what Hydra put there (``.hydra/``, the log), so nothing looks like a run. A
+    dir the user named stays: it may have been theirs before."""
+    named = any(o.split("=", 1)[0].lstrip("+") == "hydra.run.dir" for o in HydraConfig.get().overrides.hydra)
+    if not named and out.is_dir() and all(p.name == ".hydra" or p.suffix == ".log" for p in out.iterdir()):
         shutil.rmtree(out)
 
 
