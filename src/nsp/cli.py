@@ -144,10 +144,10 @@ class Sweeps(Callback):
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
-        for name in LAUNCHERS:
-            logging.getLogger(name).addFilter(_how_jobs_run)
         if "joblib" not in str(config.hydra.launcher.get("_target_", "")):
-            return  # jobs run in this process: Ctrl-C interrupts the job itself
+            print("the jobs run one at a time, in this process (hydra/launcher=joblib: side by side)", flush=True)
+            return  # Ctrl-C interrupts the job itself
+        logging.getLogger(JOBLIB).addFilter(_how_jobs_run)
         stop = Path(config.hydra.sweep.dir) / STOPPED
 
         def wait(signum: int, frame: Any) -> None:
@@ -179,16 +179,13 @@ class Sweeps(Callback):
             sys.exit(FAILED)
 
 
-LAUNCHERS = ("hydra._internal.core_plugins.basic_launcher", "hydra_plugins.hydra_joblib_launcher._core")  # their loggers
+JOBLIB = "hydra_plugins.hydra_joblib_launcher._core"  # the logger of the joblib launcher plugin
 
 
 def _how_jobs_run(record: logging.LogRecord) -> bool:
-    """A launcher's first line, said plainly: how many jobs, and whether one at a time (Hydra's
-    basic launcher) or side by side (joblib's, whose own line lists its 13 settings)."""
-    message = record.getMessage()
-    if match := re.match(r"Launching (\d+) jobs locally", message):
-        record.msg, record.args = f"launching {counted(match[1], 'job')}, one at a time (hydra/launcher=joblib: side by side)", ()
-    elif match := re.match(r"Joblib\.Parallel\(n_jobs=(-?\d+).* is launching (\d+) jobs", message):
+    """The joblib launcher's first line, said plainly: how many jobs side by side (its own line lists
+    its 13 settings)."""
+    if match := re.match(r"Joblib\.Parallel\(n_jobs=(-?\d+).* is launching (\d+) jobs", record.getMessage()):
         at_once = "one process per core" if match[1] == "-1" else f"{match[1]} processes"
         record.msg, record.args = f"launching {counted(match[2], 'job')} side by side, {at_once}", ()
     return True
