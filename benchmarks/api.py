@@ -56,7 +56,7 @@ def main() -> None:
         f"Fastest API / fastest command: {ratio:.2f}.",
         "",
         "Command: `python benchmarks/api.py`  ",
-        f"Machine: {machine()}",
+        f"Machine: {machine()}, no GPU, nothing else running; {time.strftime('%Y-%m-%d')}",
         "",
         *rows,
     ])

@@ -60,10 +60,10 @@ def main() -> None:
         "Wall time of fresh processes, Python's start-up included: `--help` of each command, which imports "
         "neither torch nor Lightning, and `python -m nsp.paint` until its first line (\"painting astronaut with "
         f"500 oilpaint strokes…\"), printed before torch loads. Fastest and median of {args.repeats} runs, "
-        f"{time.strftime('%Y-%m-%d')}. Before these were kept free of torch, `--help` took 6.7–15 s.",
+        f"{time.strftime('%Y-%m-%d')}.",
         "",
         "Command: `python benchmarks/help.py`  ",
-        f"Machine: {machine()} (shared with other work while measured)",
+        f"Machine: {machine()}, nothing else running; {time.strftime('%Y-%m-%d')}",
         "",
         *rows,
     ])

@@ -207,8 +207,7 @@ def main() -> None:
            "(nothing is downloaded)."),
         "",
         f"Command: `{command}`  ",
-        f"Machine: {machine()}, no GPU, {args.jobs} painting{'s' if args.jobs > 1 else ''} at a time, shared with "
-        f"other work while measured; {args.date}",
+        f"Machine: {machine()}, no GPU, {args.jobs} painting{'s' if args.jobs > 1 else ''} at a time; {args.date}",
         "",
         *rows,
         "",

@@ -32,24 +32,37 @@ from doc import machine, write_section  # noqa: E402
 
 BRUSHES = {"watercolor": "watercolor", "markerpen": "markerpen", "rectangle": "tape"}  # reference name -> nsp's
 
+# Prints the seconds its engine spent drawing (draw_stroke alone: not the sampling, not the start-up).
 DRAW = """
-import random, sys
+import random, sys, time
 import numpy as np
 import renderer
 name, count, size, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
 random.seed(0)
 engine = renderer.Renderer(renderer=name, CANVAS_WIDTH=size, canvas_color="white")
-kept = []
+kept, seconds = [], 0.0
 while len(kept) < count:
     engine.random_stroke_params()
     engine.stroke_params = engine.stroke_params.astype(np.float64)  # Python floats to OpenCV under numpy 2
     if engine.check_stroke():
+        start = time.perf_counter()
         engine.draw_stroke()
+        seconds += time.perf_counter() - start
         kept.append(engine.stroke_params.copy())
 p = np.array(kept)[None]
 np.savez(out, x_ctt=p[..., :engine.d_shape], x_color=p[..., engine.d_shape:engine.d_shape + engine.d_color],
          x_alpha=p[..., -1:], canvas=engine.canvas)
+print(seconds)
 """
+
+
+def draw(reference: Path, name: str, count: int, size: int, path: Path) -> float:
+    """The reference's engine paints ``count`` of its random ``name`` strokes on a white ``size``-px
+    canvas in its own process, saving them as ``path`` (.npz); returns the seconds it spent drawing."""
+    run = subprocess.run([sys.executable, "-c", DRAW, name, str(count), str(size), str(path)], cwd=reference, check=True,
+                         capture_output=True, text=True,
+                         env=os.environ | {"PYTHONPATH": os.pathsep.join([str(reference), os.environ.get("PYTHONPATH", "")])})
+    return float(run.stdout.split()[-1])
 
 
 def compare(reference: Path, name: str, count: int, size: int, tmp: Path) -> tuple[float, float]:
@@ -57,8 +70,7 @@ def compare(reference: Path, name: str, count: int, size: int, tmp: Path) -> tup
     from nsp.io.strokes import load_strokes
 
     path = tmp / f"{name}.npz"
-    subprocess.run([sys.executable, "-c", DRAW, name, str(count), str(size), str(path)], cwd=reference, check=True,
-                   env=os.environ | {"PYTHONPATH": os.pathsep.join([str(reference), os.environ.get("PYTHONPATH", "")])})
+    draw(reference, name, count, size, path)
     theirs = torch.from_numpy(np.load(path)["canvas"]).permute(2, 0, 1).double()
     painting = load_strokes(path, brush=BRUSHES[name], size=size)
     with torch.no_grad():

@@ -64,10 +64,10 @@ def main() -> None:
             f"Sinkhorn transport cost at {GRID}×{GRID}, ε = {EPS}, {ITERS} iterations (paper settings):",
             "`sinkhorn` (separable kernel, two 1-D log-sum-exp passes per half-iteration) vs",
             "`dense_sinkhorn` (explicit (HW)×(HW) cost matrix), both in `nsp.painter.transport`, float32.",
-            "Times are the best of several runs on a shared machine; rel. diff is |separable − dense| / dense.",
+            "Times are the best of several runs; rel. diff is |separable − dense| / dense.",
             "",
             f"Command: `{command}`  ",
-            f"Machine: {machine()}",
+            f"Machine: {machine()}; {time.strftime('%Y-%m-%d')}",
             "",
             *rows,
         ]

@@ -52,14 +52,18 @@ def test_a_painting_leaves_every_file_valid(photo, tmp_path):
     with Image.open(out / "animation.gif") as gif:
         assert gif.n_frames > 2 and gif.size == (48, 32)
     assert json.loads((out / "metrics.json").read_text()) == metrics
-    assert set(metrics) == {"psnr", "ssim", "seconds", "painting_seconds", "strokes", "faces"} and metrics["strokes"] == 12
+    assert set(metrics) == {"psnr", "ssim", "seconds", "painting_seconds", "strokes", "faces", "threads"}
+    assert metrics["strokes"] == 12
     assert metrics["faces"] == 0
     assert 0 < metrics["painting_seconds"] < metrics["seconds"]
     assert metrics["psnr"] > 8  # the blank canvas scores 5 dB
 
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    events = EventAccumulator(str(out / "tensorboard")).Reload()
+    from tensorboard.backend.event_processing.plugin_event_multiplexer import EventMultiplexer
+
+    assert set(EventMultiplexer().AddRunsFromDirectory(str(tmp_path)).Runs()) == {"run"}  # named after its run dir
+    events = EventAccumulator(str(out)).Reload()
     assert set(events.Tags()["scalars"]) == {"loss/l1", "level/psnr", "final/psnr", "final/ssim"}  # total = l1 here
     assert set(events.Tags()["images"]) == {"canvas", "target"}
     levels = [e.step for e in events.Scalars("level/psnr")]

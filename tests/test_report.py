@@ -27,7 +27,7 @@ def fake_job(sweep: Path, num: int | str, overrides: list[str], metrics: dict | 
     if metrics is not None:
         (job / "metrics.json").write_text(json.dumps(metrics))
     if psnr_curve:
-        with SummaryWriter(job / "tensorboard") as writer:
+        with SummaryWriter(job) as writer:
             for step, value in psnr_curve:
                 writer.add_scalar("val/psnr", value, step)
 

@@ -40,8 +40,9 @@ def command(name: str, *args: str, cwd: Path = ROOT) -> subprocess.Popen:
 
 
 def wait_for(path: Path, process: subprocess.Popen, timeout: float = 120) -> None:
+    """Until ``path`` (its name may be a glob pattern) exists, while ``process`` runs."""
     deadline = time.monotonic() + timeout
-    while not path.exists():
+    while not any(path.parent.glob(path.name)):
         assert process.poll() is None, process.communicate()[1]
         assert time.monotonic() < deadline, f"{path} never appeared"
         time.sleep(0.2)
@@ -111,7 +112,7 @@ def test_default_dirs_are_claimed_once_so_runs_started_in_the_same_second_never_
                          ids=["SIGTERM", "Ctrl-C", "Ctrl-C twice"])
 def test_a_signalled_painting_keeps_what_it_painted_and_exits_interrupted(signals, tmp_path):
     run = command("nsp.paint", "strokes=3000", "work_size=128", "progress=false", f"hydra.run.dir={tmp_path}")
-    wait_for(tmp_path / "tensorboard", run)
+    wait_for(tmp_path / "events.out.tfevents.*", run)
     time.sleep(3)  # some strokes in
     for sig in signals:  # the second while the first one's files are being written
         run.send_signal(sig)

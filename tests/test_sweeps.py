@@ -56,7 +56,7 @@ def test_an_interrupted_parallel_sweep_keeps_each_jobs_painting_and_starts_no_ot
                            start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            preexec_fn=foreground)
     deadline = time.monotonic() + 180
-    while not all((tmp_path / job / "tensorboard").exists() for job in ("0_astronaut_oilpaint", "1_chelsea_oilpaint")):
+    while not all(any((tmp_path / job).glob("events.out.tfevents.*")) for job in ("0_astronaut_oilpaint", "1_chelsea_oilpaint")):
         assert run.poll() is None and time.monotonic() < deadline, run.communicate()[1]
         time.sleep(0.5)
     time.sleep(10)  # each job past its first strokes, even with the whole suite running beside it
@@ -96,9 +96,21 @@ def test_a_stopped_training_sweep_run_again_resumes_and_matches_a_sweep_never_st
     assert again.returncode == 0, again.stderr
     assert f"resuming the sweep in {stopped}: 1 completed job kept, the rest run, training from its last.ckpt" in again.stdout
     assert "0_dcgan_tape: completed in an earlier run of this sweep; kept" in again.stdout
+    assert again.stdout.count("training renderer dcgan") == 2  # the kept job is not said to start
     assert (stopped / "0_dcgan_tape" / "checkpoints" / "last.ckpt").stat().st_mtime_ns == finished
     assert sweep("nsp.train", never, *steps).returncode == 0
     for n in range(3):
         resumed, straight = (metrics(root / f"{n}_dcgan_tape") for root in (stopped, never))
         assert {**resumed, "seconds": 0} == {**straight, "seconds": 0}, n
     assert "3 jobs: 3 completed." in write_report(stopped)[0].read_text()
+
+
+def test_one_painting_takes_every_core_and_a_parallel_sweeps_jobs_one_each(tmp_path):
+    env = os.environ | {"OMP_NUM_THREADS": "2"}  # torch's default on a 2-core machine, whatever this one has
+    paint = [sys.executable, "-m", "nsp.paint", *TINY_PAINT]
+    subprocess.run([*paint, f"hydra.run.dir={tmp_path / 'one'}"], env=env, check=True, capture_output=True, timeout=300)
+    assert metrics(tmp_path / "one")["threads"] == 2
+    for launcher, threads in (("joblib", 1), ("basic", 2)):  # side by side: a core each; one at a time: all of them
+        subprocess.run([*paint, "-m", "seed=0,1", f"hydra/launcher={launcher}", f"hydra.sweep.dir={tmp_path / launcher}"],
+                       env=env, check=True, capture_output=True, timeout=300)
+        assert [metrics(job)["threads"] for job in sorted((tmp_path / launcher).glob("*_astronaut_oilpaint"))] == [threads] * 2

@@ -152,8 +152,8 @@ def test_train_writes_metrics_checkpoints_and_tensorboard(tmp_path, monkeypatch,
 
     # TensorBoard: one event file; charts grouped train/ val/ test/ lr/, no epoch; validations every epoch
     # (4 steps) and, once, at the last step, mid-epoch; the final scores in HPARAMS with the run's settings.
-    assert len(list((tmp_path / "tensorboard").glob("events.out.tfevents.*"))) == 1
-    events = EventAccumulator(str(tmp_path / "tensorboard"), size_guidance={"scalars": 0, "images": 0}).Reload()
+    assert len(list(tmp_path.glob("events.out.tfevents.*"))) == 1
+    events = EventAccumulator(str(tmp_path), size_guidance={"scalars": 0, "images": 0}).Reload()
     assert set(events.Tags()["scalars"]) == {"train/loss", "train/grad_norm", "train/strokes_per_s", "lr/Adam", "val/loss", "val/psnr", "val/psnr_fg", "val/psnr_alpha",
                                              "test/loss", "test/psnr", "test/psnr_fg", "test/psnr_alpha"}
     assert [e.step for e in events.Scalars("val/psnr")] == [4, 8, 10]

@@ -86,6 +86,12 @@ def refused_write(error: OSError, out: Path) -> str:
             f"{', '.join(kept) or 'no file'} (each whole: files are written beside their place, then renamed)")
 
 
+def kept(cfg: DictConfig) -> bool:
+    """Whether this job is one of a sweep run again that an earlier run completed: :func:`run_job`
+    keeps its metrics instead of running it (so a command says nothing of starting it)."""
+    return in_sweep() and _status(Path(cfg.output_dir) / "metrics.json") == "completed"
+
+
 def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
     """``work(cfg)``'s result; on an error, one line and an exit in a single run, a record in the
     job's dir in a sweep (returns None).
@@ -101,7 +107,7 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
     if stop is not None and stop.exists():
         record(out, "interrupted", "the sweep was interrupted before this job began")
         return None
-    if stop is not None and _status(out / "metrics.json") == "completed":  # a sweep run again: its finished jobs stay
+    if kept(cfg):  # a sweep run again: its finished jobs stay
         print(f"{out.name}: completed in an earlier run of this sweep; kept", flush=True)
         return json.loads((out / "metrics.json").read_text())
     if stop is not None and cfg.get("ckpt_path", "") is None and (last := out / "checkpoints" / "last.ckpt").is_file():
@@ -399,8 +405,7 @@ def _unmade_run(out: Path) -> None:
     """A single run refused a value before its work began: its default (time-stamped) dir goes, if
     it holds nothing but what Hydra put there (``.hydra/``, the log), so nothing looks like a run. A
     dir the user named stays: it may have been theirs before."""
-    named = any(o.split("=", 1)[0].lstrip("+") == "hydra.run.dir" for o in HydraConfig.get().overrides.hydra)
-    if not named and out.is_dir() and all(p.name == ".hydra" or p.suffix == ".log" for p in out.iterdir()):
+    if not _given("hydra.run.dir") and out.is_dir() and all(p.name == ".hydra" or p.suffix == ".log" for p in out.iterdir()):
         shutil.rmtree(out)
 
 
@@ -408,10 +413,15 @@ def _unmade_sweep() -> None:
     """A sweep that Hydra refused while planning its jobs (a bad value among the swept ones) leaves
     no dir: the one :class:`RunDirs` made for it goes, if it holds nothing but its claim and the plan
     Hydra wrote (``multirun.yaml``): no job began."""
-    if HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN:
+    if in_sweep():
         sweep = Path(HydraConfig.get().sweep.dir)
         if sweep.is_dir() and {p.name for p in sweep.iterdir()} <= {CLAIM, "multirun.yaml"}:
-            shutil.rmtree(sweep)
+            shutil.rmtree(sweep)  # a named dir too: empty before, if it existed, so nothing of the user's is lost
+
+
+def _given(key: str) -> bool:
+    """Whether the command line set Hydra's ``key`` (e.g. ``hydra.run.dir``)."""
+    return any(o.split("=", 1)[0].lstrip("+") == key for o in HydraConfig.get().overrides.hydra)
 
 
 def _one_line(error: BaseException) -> str:

@@ -2,7 +2,7 @@
 strokes (paper §3).
 
 Config: ``conf/paint/paint.yaml``; results in the Hydra run dir: ``final.png``, ``strokes.json``,
-``painting.svg``, ``animation.gif``, ``metrics.json``, ``tensorboard/``, ``paint.log``. The work's
+``painting.svg``, ``animation.gif``, ``metrics.json``, TensorBoard events, ``paint.log``. The work's
 modules (torch) are imported only once the command line has been read.
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import MISSING, DictConfig
 
-from nsp.cli import INTERRUPTED, command, run_job
+from nsp.cli import INTERRUPTED, command, in_sweep, kept, run_job
 from nsp.config import BrushConfig
 from nsp.painter.schema import PaintConfig, follows_checkpoint  # config only: no torch
 from nsp.text import counted
@@ -25,7 +25,7 @@ TEXT = ("image", "background", "style.image", "brush.texture", "renderer.checkpo
 
 def main(cfg: DictConfig) -> float | None:
     named = "brush" in {o.lstrip("+~").split("=", 1)[0].split(".")[0] for o in HydraConfig.get().overrides.task}
-    if cfg.task is None:  # the first line, before the work's modules load (seconds)
+    if cfg.task is None and not kept(cfg):  # the first line, before the work's modules load (seconds)
         what = f"{cfg.strokes} strokes of the checkpoint's brush" if follows_checkpoint(cfg, named) else counted(cfg.strokes, cfg.brush.name + " stroke")
         log.info(f"painting {cfg.image} with {what}…")
     import torch
@@ -33,6 +33,8 @@ def main(cfg: DictConfig) -> float | None:
 
     from nsp.painter.run import paint
 
+    if cfg.threads is None and in_sweep() and HydraConfig.get().launcher.get("n_jobs", 1) != 1:
+        cfg.threads = 1  # the joblib launcher runs the sweep's jobs side by side, a core each
     if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits, renderer_painting)
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
@@ -43,8 +45,8 @@ def main(cfg: DictConfig) -> float | None:
     try:
         metrics = run_job(cfg, lambda cfg: paint(cfg, brush_named=named))  # its last line tells what was painted, how well, how fast, where
     except KeyboardInterrupt:
-        kept = [name for name in ("strokes.json", "final.png") if (Path(cfg.output_dir) / name).is_file()]
-        print(f"interrupted: {' and '.join(kept)} of what was painted in {cfg.output_dir}" if kept else
+        saved = [name for name in ("strokes.json", "final.png") if (Path(cfg.output_dir) / name).is_file()]
+        print(f"interrupted: {' and '.join(saved)} of what was painted in {cfg.output_dir}" if saved else
               "interrupted before painting began; nothing written", file=sys.stderr)
         sys.exit(INTERRUPTED)
     return None if metrics is None else metrics["psnr"]  # None: a failed job of a sweep, recorded in its dir

@@ -1,7 +1,7 @@
 """``python -m nsp.train renderer=R brush=B``: train a neural stroke renderer (paper §3.2).
 
 Config: ``conf/train/train.yaml``; results in the Hydra run dir (``metrics.json``, ``checkpoints/``,
-``tensorboard/``, ``train.log``). Lightning and torch are imported only once the command line has
+TensorBoard events, ``train.log``). Lightning and torch are imported only once the command line has
 been read.
 """
 from __future__ import annotations
@@ -13,14 +13,15 @@ from pathlib import Path
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from nsp.cli import INTERRUPTED, command, run_job
+from nsp.cli import INTERRUPTED, command, kept, run_job
 
 log = logging.getLogger("nsp.train")  # Hydra sends it to the console and train.log
 
 
 def main(cfg: DictConfig) -> float | None:
     choices = HydraConfig.get().runtime.choices  # the first line, before Lightning and torch load (seconds)
-    log.info(f"training renderer {choices.renderer} on {choices.brush} strokes, preset {choices.preset}…")
+    if not kept(cfg):
+        log.info(f"training renderer {choices.renderer} on {choices.brush} strokes, preset {choices.preset}…")
     from nsp.training.run import train
 
     try:

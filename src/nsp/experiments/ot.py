@@ -110,7 +110,7 @@ def optimize(out: Path, steps: int, x: Tensor, loss: PaintLoss, optimizer, draw,
     """
     marks = {round(steps * f) for f in (0, 0.25, 0.5, 0.75, 1)}
     frames, counter = [], itertools.count()
-    with SummaryWriter(out / "tensorboard") as writer:
+    with SummaryWriter(out) as writer:  # events in the run dir: TensorBoard names the run after it
         def observe(canvas: Tensor) -> None:
             step = next(counter)
             if step in marks:

@@ -1,6 +1,7 @@
 """A painting's files: final.png, strokes.json, painting.svg, animation.gif, and its scores."""
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import torch
@@ -27,13 +28,26 @@ def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tupl
     return final
 
 
-def write_vector_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str,
-                       render_size: int, animation_size: int, frames: int | None) -> None:
-    """Write ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order,
-    long side ``animation_size``, at most ``frames`` frames after the empty canvas; None: one a stroke)."""
-    write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background)
-    height, width = long_side(*aspect, animation_size)
-    write_gif(out / "animation.gif", brush, strokes, height, width, background, frames=frames)
+def write_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str, render_size: int,
+                animation_size: int, frames: int | None, photo: Tensor, workers: int) -> dict[str, float]:
+    """Write every file of a painting: ``strokes.json`` and ``final.png`` (:func:`write_strokes_and_png`),
+    ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order, long side
+    ``animation_size``, at most ``frames`` frames after the empty canvas; None: one a stroke), on
+    ``workers`` threads of one torch thread each (the three are independent); returns final.png's
+    :func:`similarity` to ``photo``."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # a file a core: each file's ops are too small to split well
+    try:
+        with ThreadPoolExecutor(workers) as pool:  # the longest first: the SVG, then final.png and the GIF
+            svg = pool.submit(write_svg, out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background)
+            scored = pool.submit(lambda: similarity(write_strokes_and_png(out, strokes, brush, aspect, background,
+                                                                          render_size), photo))
+            gif = pool.submit(write_gif, out / "animation.gif", brush, strokes, *long_side(*aspect, animation_size),
+                              background, frames=frames)
+            svg.result(), gif.result()
+            return scored.result()
+    finally:
+        torch.set_num_threads(threads)
 
 
 def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:

@@ -30,7 +30,7 @@ from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids,
 from nsp.painter.faces import Box
 from nsp.painter.optimize import Optimizer, optimize_strokes
 from nsp.painter.palette import Palette
-from nsp.painter.placement import place_strokes
+from nsp.painter.placement import Forms, place_strokes
 from nsp.painter.schema import ScheduleConfig
 
 LENGTHS = (0.5, 1.0, 2.0)  # a candidate stroke per length at each error peak, × the reach of the colour there
@@ -170,6 +170,7 @@ class Painter:
         x = torch.zeros(level.blocks, depth, self.brush.d, device=target.device, requires_grad=True)
         optimizer = self.optimizer([x])
         palette = Palette(goal, max(5, round(self.schedule.init_size[1] * size))) if self.schedule.palette else None  # a long stroke wide
+        forms = Forms.of(goal)
         painted = torch.zeros_like(exists)
         self._active = (level, x, painted, size)
         current = under.clone()
@@ -195,7 +196,7 @@ class Painter:
         for k in range(depth):
             live = exists[:, k].nonzero()[:, 0]  # (b,) the blocks that still take strokes
             with torch.no_grad():
-                x[live, k] = self._place(current[live], goal[live], weights[live], size)
+                x[live, k] = self._place(current[live], goal[live], weights[live], forms[live], size)
             painted[:, k] = exists[:, k]
             for callback in self.callbacks:
                 callback.on_strokes(self, len(live))
@@ -207,13 +208,14 @@ class Painter:
         optimize(live, depth, self.schedule.polish, exists[live].to(x.device))  # the whole level together
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
 
-    def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, size: int) -> Tensor:
-        """A new stroke for each block (B, 3, s, s each; weights (B, 1, s, s)): (B, d), the candidate
-        that, rendered once on the canvas, leaves the least error."""
+    def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, forms: Forms, size: int) -> Tensor:
+        """A new stroke for each block (B, 3, s, s each; weights (B, 1, s, s); the goal's ``forms``):
+        (B, d), the candidate that, rendered once on the canvas, leaves the least error."""
         s = self.schedule
         if s.candidates == 1:
-            return place_strokes(self.brush, canvas, goal, weights, s.init_size, self.generator)
-        tried = place_strokes(self.brush, canvas, goal, weights, s.init_size, self.generator, s.candidates, LENGTHS)  # (B, C, d)
+            return place_strokes(self.brush, canvas, goal, weights, s.init_size, self.generator, forms=forms)
+        tried = place_strokes(self.brush, canvas, goal, weights, s.init_size, self.generator, s.candidates, LENGTHS,
+                              forms)  # (B, C, d)
         blocks, count, d = tried.shape
         fg, alpha = self.renderer(tried.reshape(-1, d), size)
         fg, alpha = fg.view(blocks, count, 3, size, size), alpha.view(blocks, count, 1, size, size)

@@ -4,6 +4,7 @@ optimizer refines a stroke that already helps instead of searching for one."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Sequence
 
 import torch
@@ -17,6 +18,22 @@ def window(side: int) -> int:
     """Odd window about an eighth of a block ``side`` pixels wide (≥ 3): the neighbourhood that picks
     the error and the direction."""
     return max(3, side // 8 | 1)
+
+
+@dataclass(frozen=True)
+class Forms:
+    """What a new stroke reads of target blocks (B, 3, h, w), the same for every stroke of a level:
+    the structure tensor J (B, 3, h, w) over a :func:`window` and the 3×3-smoothed colours (B, 3, h, w)."""
+
+    structure: Tensor
+    colors: Tensor
+
+    @classmethod
+    def of(cls, target: Tensor) -> "Forms":
+        return cls(structure_tensor(target, window(target.shape[-1])), smooth(target, 3))
+
+    def __getitem__(self, blocks: Tensor) -> "Forms":
+        return Forms(self.structure[blocks], self.colors[blocks])
 
 
 def largest_errors(canvas: Tensor, target: Tensor, weights: Tensor, count: int = 1) -> tuple[Tensor, Tensor]:
@@ -51,6 +68,7 @@ def place_strokes(
     generator: torch.Generator,
     peaks: int = 1,
     scales: Sequence[float] = (1.0,),
+    forms: Forms | None = None,
 ) -> Tensor:
     """New strokes for each block, centred on the regions of its largest error.
 
@@ -62,6 +80,7 @@ def place_strokes(
         generator: draws the directions where the target is flat.
         peaks: how many regions of large error get a stroke (see :func:`largest_errors`).
         scales: a stroke per scale at each peak, its length that many times the reach along the forms.
+        forms: ``Forms.of(target)``, where already computed (a level computes them once).
 
     Returns:
         (B, d) strokes in block coordinates, in [0, 1], with one peak and one scale; else
@@ -75,18 +94,17 @@ def place_strokes(
     """
     batch, _, h, w = canvas.shape
     rows, cols = largest_errors(canvas, target, weights, peaks)
-    structure = structure_tensor(target, window(w))
-    seeds = smooth(target, 3)
+    forms = Forms.of(target) if forms is None else forms
     pick = torch.arange(batch, device=target.device)
     lo, hi = size[0] * (w - 1) / 2, size[1] * (w - 1) / 2  # half-lengths in block pixels
     out = []
     for row, col in zip(rows.T, cols.T):
-        along, coherence = orientation(structure[pick, :, row, col])
+        along, coherence = orientation(forms.structure[pick, :, row, col])
         flat = coherence < 0.05
         turn = torch.rand(batch, generator=generator, dtype=target.dtype, device=generator.device).to(target.device)
         direction = torch.where(flat, 2 * math.pi * turn, along)
         colors, dist = reach(target, canvas, row.to(target.dtype), col.to(target.dtype), direction,
-                             seeds[pick, :, row, col], hi)
+                             forms.colors[pick, :, row, col], hi)
         head, tail = colors[:, 1].mean(1), colors[:, 0].mean(1)  # (B, 3): the −direction and +direction halves
         paint = (head, tail) if brush.kinds.count("color") == 6 else (colors.mean((1, 2)),)
         # the stroke spans the walks' stretch: centre halfway between their ends, half-extents clamped

@@ -9,7 +9,6 @@ from __future__ import annotations
 import logging
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import torch
@@ -28,7 +27,7 @@ from nsp.io.export import frame_ends, write_png
 from nsp.painter.callbacks import ProgressBar, TensorBoard
 from nsp.painter.faces import find_faces
 from nsp.painter.losses import PaintLoss
-from nsp.painter.outputs import SCORE_SIZE, similarity, write_strokes_and_png, write_vector_files
+from nsp.painter.outputs import SCORE_SIZE, write_files, write_strokes_and_png
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import build_renderer
 from nsp.painter.schema import follows_checkpoint
@@ -177,7 +176,7 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
     target = resize(photo, cfg.work_size)
     shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
     phases = []  # what took how long, as the bars showed it
-    with SummaryWriter(out / "tensorboard") as writer:
+    with SummaryWriter(out) as writer:  # events in the run dir: TensorBoard names the run after it
         board = TensorBoard(writer, target)
         with ProgressBar(cfg.strokes, cfg.progress) as bar:  # the painting's time: its face search too
             painter.callbacks += [board, bar]
@@ -200,10 +199,8 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
             frames = len(frame_ends(len(strokes), cfg.animation_frames))
             log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
             files = time.perf_counter()
-            with ThreadPoolExecutor(2) as pool:  # final.png and its scores, and the animation, at once: a core each
-                scored = pool.submit(lambda: similarity(write_strokes_and_png(out, strokes, *shared), photo))
-                pool.submit(write_vector_files, out, strokes, *shared, cfg.animation_size, cfg.animation_frames).result()
-                scores = scored.result()
+            scores = write_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames, photo,
+                                 workers=min(3, torch.get_num_threads()))
         except BaseException:
             with shielded():
                 write_strokes_and_png(out, strokes, *shared)  # the painting (styled where that step finished)
@@ -211,7 +208,7 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)
     metrics = scores | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
-                        "strokes": len(strokes), "faces": len(faces)}
+                        "strokes": len(strokes), "faces": len(faces), "threads": torch.get_num_threads()}
     write_json(out / "metrics.json", metrics)
     log.info(f"{', '.join(phases)}: PSNR {scores['psnr']:.2f} dB, SSIM {scores['ssim']:.3f}; {out}")
     return metrics

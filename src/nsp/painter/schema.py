@@ -101,9 +101,9 @@ class PaintConfig:
     # each (the last maybe fewer); None: one frame per stroke
     animation_frames: Optional[int] = 100
     seed: int = MISSING
-    # torch CPU threads. Each step's tensors are small: more threads gain little, and on a busy
-    # machine they wait on each other (3-5× slower measured with two on two shared cores).
-    threads: Optional[int] = 1
+    # torch CPU threads; None: every core for one painting (torch's default, OMP_NUM_THREADS
+    # honoured), one per job in a sweep (its jobs run side by side, a core each)
+    threads: Optional[int] = None
     device: str = "cpu"  # cpu, cuda, cuda:N or auto (the GPU torch sees, else the CPU)
     progress: bool = True
     renderer: RendererConfig = field(default_factory=RendererConfig)

@@ -109,10 +109,11 @@ def job_number(path: Path) -> int | str:
 
 
 def read_curves(path: Path) -> dict[str, list[tuple[int, float]]]:
-    """Every scalar tag of the TensorBoard event files under ``path``, merged over event dirs."""
+    """Every scalar tag of the TensorBoard event files under ``path``, merged over the files (a later
+    file's point at a step replaces an earlier one's: a resumed run)."""
     curves: dict[str, dict[int, float]] = {}
     logging.getLogger("tensorboard").setLevel(logging.WARNING)  # its reader's INFO lines are not the report's
-    for events in sorted({f.parent for f in path.rglob("events.out.tfevents.*") if f.is_file()}):
+    for events in sorted(f for f in path.rglob("events.out.tfevents.*") if f.is_file()):  # by name: by time
         accumulator = EventAccumulator(str(events), size_guidance={"scalars": 0}).Reload()  # 0: keep all points
         for tag in accumulator.Tags()["scalars"]:
             for event in accumulator.Scalars(tag):

@@ -153,7 +153,7 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
         scheduler=instantiate(cfg.model.scheduler),
         scheduler_interval=str(cfg.model.scheduler_interval),
     )
-    logger = RunLogger(out, name="tensorboard", version="", default_hp_metric=False)
+    logger = RunLogger(out, name="", version="", default_hp_metric=False)  # events in the run dir: the run is named after it
     config = OmegaConf.to_yaml(OmegaConf.masked_copy(cfg, [key for key in cfg if key != "hydra"]), resolve=True)
     logger.experiment.add_text("config", "    " + config.replace("\n", "\n    "))  # TensorBoard's TEXT: the run's config
     checkpoints = out / "checkpoints"
