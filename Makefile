@@ -30,7 +30,8 @@ demo: setup
 test: setup
 	$(BIN)/python -m pytest -n 2
 
-bench: setup
+bench: setup  # quality.py (--base) and the reference rows (--reference) need another checkout: docs/benchmarks.md
+	$(BIN)/python benchmarks/demo.py
 	$(BIN)/python benchmarks/engine.py
 	$(BIN)/python benchmarks/render.py
 	$(BIN)/python benchmarks/threads.py

@@ -1,10 +1,10 @@
 """Painter: quality and wall time of ``python -m nsp.paint`` per photo, brush and stroke count.
 
 Each painting is a fresh ``python -m nsp.paint image=P brush=B strokes=N`` process (defaults
-otherwise), timed end to end (start-up, painting, every file written). Scores compare final.png
-with the photo, both box-downsampled to a 256-px long side: PSNR and SSIM (torchmetrics), LPIPS
-only where its weights are already on this machine (nothing is downloaded), and for astronaut the
-PSNR of the face (rows 35–115, cols 75–155). Writes the "Painter: photos, brushes, budgets" section
+otherwise), timed end to end (start-up, painting, every file written). PSNR and SSIM are the
+command's own (metrics.json); with final.png and the photo box-downsampled to a 256-px long side,
+LPIPS only where its weights are already on this machine (nothing is downloaded), and for
+astronaut the PSNR of the face (rows 35–115, cols 75–155). Writes the "Painter: photos, brushes, budgets" section
 of docs/benchmarks.md, docs/img/painter_psnr.png (PSNR against strokes) and docs/img/painter_<brush>.png (the paintings at
 each budget).
 
@@ -34,7 +34,7 @@ import torch.nn.functional as F
 from PIL import Image
 
 from nsp.brushes import BRUSHES
-from nsp.images import BUILTIN, load_image
+from nsp.images import BUILTIN, load_image, long_side
 
 sys.path.insert(0, str(Path(__file__).parent))
 from doc import DOC, machine, write_section  # noqa: E402
@@ -44,9 +44,8 @@ IMAGES = DOC.parent / "img"
 
 
 def box256(image: torch.Tensor) -> torch.Tensor:
-    """(3, H, W) -> long side 256 by averaging whole boxes (H, W multiples of the factor)."""
-    factor = max(image.shape[-2:]) // 256
-    return F.avg_pool2d(image[None], factor)[0] if factor > 1 else image
+    """(3, H, W) -> long side 256 (aspect kept), each pixel the mean of the box it covers."""
+    return F.interpolate(image[None], size=long_side(*image.shape[-2:], 256), mode="area")[0]
 
 
 ALEXNET = "alexnet-owt-7be5be79.pth"  # the torchvision weights torchmetrics' LPIPS loads
@@ -67,8 +66,8 @@ def lpips_metric():
 
 def paint_once(photo: str, brush: str, strokes: int, out: Path, repeats: int = 1, overrides: Sequence[str] = ()) -> dict:
     """The fastest of ``repeats`` ``python -m nsp.paint`` processes (with ``overrides``): its wall
-    seconds, the seconds it spent painting (metrics.json), the rest (start-up, checks, files) and its
-    painting (3, h, w)."""
+    seconds, the seconds it spent painting (metrics.json), the rest (start-up, checks, files), its
+    painting (3, h, w) and its metrics.json."""
     best = None
     for _ in range(repeats):
         shutil.rmtree(out, ignore_errors=True)
@@ -83,7 +82,8 @@ def paint_once(photo: str, brush: str, strokes: int, out: Path, repeats: int = 1
         if best is None or wall < best["wall"]:
             final = Image.open(out / "final.png").convert("RGB")
             final = torch.from_numpy(np.array(final)).permute(2, 0, 1).float() / 255
-            best = {"wall": wall, "painting": painting, "overhead": wall - painting, "final": final}
+            best = {"wall": wall, "painting": painting, "overhead": wall - painting, "final": final,
+                    "metrics": json.loads((out / "metrics.json").read_text())}
     return best
 
 
@@ -168,7 +168,6 @@ def main() -> None:
     args = parser.parse_args()
     if args.jobs < 1 or args.repeats < 1:
         parser.error(f"--jobs {args.jobs} --repeats {args.repeats}: expected at least 1 each")
-    torch.set_num_threads(1)
     lpips = lpips_metric()
     results = []
     header = ("| photo | brush | strokes | wall (s) | painting (s) | rest (s) | PSNR (dB) | face PSNR (dB) | SSIM |"
@@ -181,6 +180,7 @@ def main() -> None:
         for (photo, brush, strokes), future in zip(cases, runs):  # in order, each as soon as it and those before are done
             run = future.result()
             s = scores(run["final"], load_image(photo), photo == "astronaut", lpips)
+            s |= {key: run["metrics"][key] for key in ("psnr", "ssim")}  # the command's own scores, as every table gives them
             results.append({"photo": photo, "brush": brush, "strokes": strokes, "wall": run["wall"]} | s)
             face = f"{s['face']:.2f}" if "face" in s else "—"
             rows.append(f"| {photo} | {brush} | {strokes} | {run['wall']:.1f} | {run['painting']:.1f} "
@@ -201,8 +201,8 @@ def main() -> None:
         "`python -m nsp.paint image=P brush=B strokes=N`, defaults otherwise, one process per painting (the fastest "
         "of `--repeats`): wall time includes start-up and writing every file; *painting* is the painter's own time "
         "(metrics.json `painting_seconds`), *rest* the fixed overhead: imports, checks, final.png, SVG, GIF, metrics. "
-        "final.png and the photo are both box-downsampled to a 256-px "
-        "long side; PSNR and SSIM by torchmetrics; face PSNR: astronaut's rows 35–115, cols 75–155. "
+        "PSNR and SSIM are the command's own (metrics.json: final.png against the photo at a 256-px long side); "
+        "face PSNR (astronaut's rows 35–115, cols 75–155) and LPIPS compare the two box-downsampled to that size. "
         + ("LPIPS (AlexNet) from local weights." if lpips else "LPIPS: skipped, its weights are not on this machine "
            "(nothing is downloaded)."),
         "",

@@ -2,8 +2,7 @@
 
 For each photo, the two paint it alternately (A B A B …, ``--repeats`` times each, a fresh process
 each time, one painting at a time); a painting's time is metrics.json's ``painting_seconds`` (the
-painter alone), its scores those of ``benchmarks/painter.py`` (final.png and the photo
-box-downsampled to a 256-px long side). Prints a row per photo and the means; with ``--section``
+painter alone), its scores the command's own (metrics.json). Prints a row per photo and the means; with ``--section``
 writes them as that section of docs/benchmarks.md.
 
     git worktree add /tmp/base <commit>
@@ -23,9 +22,9 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).parent))
 from doc import machine, write_section  # noqa: E402
-from painter import paint_once, scores  # noqa: E402
+from painter import paint_once  # noqa: E402
 
-from nsp.images import BUILTIN, load_image  # noqa: E402
+from nsp.images import BUILTIN  # noqa: E402
 
 HERE = Path(__file__).resolve().parent.parent
 
@@ -52,7 +51,7 @@ def main() -> None:
                     os.environ["PYTHONPATH"] = str(src)  # the subprocess imports this checkout's nsp
                     run = paint_once(photo, args.brush, args.strokes, Path(tmp) / side)
                     seconds[side].append(run["painting"])
-                    result[side] = scores(run["final"], load_image(photo), False, None)
+                    result[side] = run["metrics"]
             median = {side: statistics.median(values) for side, values in seconds.items()}
             fastest = {side: min(values) for side, values in seconds.items()}
             for side in sides:

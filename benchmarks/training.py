@@ -2,17 +2,13 @@
 training-step strokes/s (forward, backward and Adam step of each renderer), at the default preset.
 
 Data must not be the bottleneck: each brush's data rate should exceed the step rate of the renderers.
-Prints markdown tables and writes them as the "## Renderer training" section of docs/benchmarks.md,
-leaving the other sections as they are.
+Prints markdown tables and writes them as the "Renderer training" section of docs/benchmarks.md.
 
     python benchmarks/training.py [--threads N] [--repeats R] [--steps K]
 """
 from __future__ import annotations
 
 import argparse
-import os
-import platform
-import re
 import sys
 import time
 from pathlib import Path
@@ -26,24 +22,16 @@ from nsp.training.data import StrokeData
 from nsp.training.module import RendererModule
 from nsp.training.schema import register_configs
 
-from doc import best_seconds  # benchmarks/doc.py, beside this script
+sys.path.insert(0, str(Path(__file__).parent))
+from doc import best_seconds, machine, write_section  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CONF = ROOT / "conf" / "train"
-DOC = ROOT / "docs" / "benchmarks.md"
-HEADING = "## Renderer training"
 
 
 def best_rate(fn, strokes: int, repeats: int) -> float:
     """Strokes/s of the fastest of ``repeats`` timed calls."""
     return strokes / best_seconds(fn, repeats)
-
-
-def cpu_name() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines() if Path("/proc/cpuinfo").exists() else []:
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return platform.processor() or platform.machine()
 
 
 def default_config(*overrides: str):
@@ -107,30 +95,19 @@ def main() -> None:
         print(step_rows[-1], flush=True)
 
     command = " ".join(["python", "benchmarks/training.py", *sys.argv[1:]])
-    machine = f"{os.cpu_count()}-core CPU ({cpu_name()}), torch {torch.__version__}, {torch.get_num_threads()} thread(s)"
-    text = "\n".join([
-        HEADING,
-        "",
-        f"Default preset: {cfg.model.size} px, width {cfg.model.width}, batch {cfg.data.batch_size}, "
-        f"{cfg.data.num_workers} loader process(es). Datamodule: training",
-        "batches sampled and drawn (antialiased) by the vector engine in the loader, as `python -m nsp.train`",
-        "does; training step: forward, backward and Adam step on a watercolor batch, in the training process.",
-        "Rates are the best of several timed runs.",
+    write_section("Renderer training", "\n".join([
+        f"Default preset: {cfg.model.size} px, channel multiplier {cfg.model.channel_mult}, batch {cfg.data.batch_size}, "
+        f"{cfg.data.num_workers} loader process(es). Datamodule: training batches sampled and drawn (antialiased) by "
+        "the vector engine in the loader, as `python -m nsp.train` does; training step: forward, backward and Adam step "
+        "on a watercolor batch, in the training process. Rates are the best of several timed runs.",
         "",
         f"Command: `{command}`  ",
-        f"Machine: {machine}; {time.strftime('%Y-%m-%d')}",
+        f"Machine: {machine()}; {time.strftime('%Y-%m-%d')}",
         "",
         *data_rows,
         "",
         *step_rows,
-        "",
-    ])
-    print(text)
-    doc = DOC.read_text() if DOC.exists() else "# Benchmarks\n"
-    section = re.compile(rf"^{re.escape(HEADING)}\n.*?(?=^## |\Z)", re.S | re.M)
-    text += "\n"
-    doc = section.sub(lambda _: text, doc) if section.search(doc) else doc.rstrip("\n") + "\n\n" + text
-    DOC.write_text(doc.rstrip("\n") + "\n")
+    ]))
 
 
 if __name__ == "__main__":

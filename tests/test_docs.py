@@ -14,4 +14,4 @@ def test_the_docs_site_builds_strictly_with_the_api_reference(tmp_path):
     assert done.returncode == 0, done.stderr[-3000:]
     api = (tmp_path / "api" / "index.html").read_text()
     assert "nsp.api.paint" in api and "Painting" in api and "render" in api
-    assert (tmp_path / "img" / "demo_before_after.png").is_file()
+    assert (tmp_path / "img" / "demo.png").is_file()
