@@ -20,7 +20,8 @@ log = logging.getLogger("nsp.train")  # Hydra sends it to the console and train.
 
 def main(cfg: DictConfig) -> float | None:
     choices = HydraConfig.get().runtime.choices  # the first line, before Lightning and torch load (seconds)
-    if not kept(cfg):
+    again = kept(cfg)  # a job an earlier run of its sweep completed: run_job says so, and it is not trained
+    if not again:
         log.info(f"training renderer {choices.renderer} on {choices.brush} strokes, preset {choices.preset}…")
     from nsp.training.run import train
 
@@ -31,8 +32,8 @@ def main(cfg: DictConfig) -> float | None:
         print(f"interrupted: resume with ckpt_path={last} hydra.run.dir={cfg.output_dir}" if last.is_file() else
               "interrupted before training began; nothing saved", file=sys.stderr)
         sys.exit(INTERRUPTED)
-    if metrics is None:  # a failed job of a sweep, recorded in its dir
-        return None
+    if metrics is None or again:  # a failed job of a sweep, recorded in its dir; a kept one
+        return None if metrics is None else metrics["val/psnr"]
     saved = ", ".join(p.name for name in ("best.ckpt", "last.ckpt") if (p := Path(cfg.output_dir) / "checkpoints" / name).is_file())
     log.info(f"trained {metrics['renderer']} on {metrics['brush']}: {metrics['steps']} steps in {metrics['seconds']:.0f} s, "
              f"test PSNR {metrics['test/psnr']:.2f} dB (validation {metrics['val/psnr']:.2f}): {cfg.output_dir} "
