@@ -12,7 +12,6 @@ fastest wall time (start-up, painting and files) and metrics.json's PSNR. Writes
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -79,8 +78,7 @@ def main() -> None:
                         out = Path(tmp) / side
                         run = paint_once(args.photo, brush, strokes, out)
                         if run["wall"] < best[side]["wall"]:
-                            psnr = json.loads((out / "metrics.json").read_text())["psnr"]
-                            best[side] = {"wall": run["wall"], "psnr": psnr}
+                            best[side] = {"wall": run["wall"], "psnr": run["metrics"]["psnr"]}
                 points[brush, strokes] = best
                 a, b = best["A"], best["B"]
                 print(f"{brush} {strokes}: A {a['wall']:.1f} s {a['psnr']:.2f} dB, B {b['wall']:.1f} s {b['psnr']:.2f} dB",
