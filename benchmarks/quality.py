@@ -3,8 +3,11 @@ checkout (A) against another (B), measured in turn on the same host.
 
 For each brush and budget, A and B each run ``python -m nsp.paint image=PHOTO brush=B strokes=N``
 in a fresh process, alternately (A B A B …, ``--repeats`` each, one at a time); a point is the
-fastest wall time (start-up, painting and files) and metrics.json's PSNR. Writes the table as the
-"Time to quality" section of docs/benchmarks.md and the curves to docs/img/time_to_quality.png.
+fastest wall time (start-up, painting and files) and metrics.json's PSNR. For the brushes whose
+soft renders search for nearest points (watercolor, markerpen), A also runs with
+``renderer.compile=true`` in turn (its kernel compiled once before, into a fresh cache, that
+compile timed). Writes the table as the "Time to quality" section of docs/benchmarks.md and the
+curves to docs/img/time_to_quality.png.
 
     git worktree add /tmp/base <commit>
     python benchmarks/quality.py --base /tmp/base [--photo astronaut] [--repeats 1]
@@ -24,7 +27,10 @@ from painter import paint_once  # noqa: E402
 
 from nsp.brushes import BRUSHES  # noqa: E402
 
+from nsp.engine.fused import SEARCH_MS  # noqa: E402
+
 HERE = Path(__file__).resolve().parent.parent
+COMPILED = "A, compiled search"
 PLOT = HERE / "docs" / "img" / "time_to_quality.png"
 
 
@@ -39,7 +45,9 @@ def plot(points: dict, labels: dict[str, str], path: Path) -> None:
     figure, axes = plt.subplots(1, len(brushes), figsize=(4 * len(brushes), 3.6), squeeze=False)
     for ax, brush in zip(axes[0], brushes):
         budgets = sorted(n for b, n in points if b == brush)
-        for side, style in (("B", "o--"), ("A", "o-")):
+        for side, style in (("B", "o--"), ("A", "o-"), (COMPILED, "s:")):
+            if side not in points[brush, budgets[0]]:
+                continue
             xs = [points[brush, n][side]["wall"] for n in budgets]
             ys = [points[brush, n][side]["psnr"] for n in budgets]
             ax.plot(xs, ys, style, label=labels[side])
@@ -66,35 +74,42 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=1, help="runs of each checkout per point (the fastest counts)")
     parser.add_argument("--date", default=time.strftime("%Y-%m-%d"))
     args = parser.parse_args()
-    sides = {"A": HERE / "src", "B": args.base.resolve() / "src"}
-    points = {}
+    sides = {"A": (HERE / "src", []), "B": (args.base.resolve() / "src", []),
+             COMPILED: (HERE / "src", ["renderer.compile=true"])}
+    points, compiles = {}, {}
     with tempfile.TemporaryDirectory() as tmp:
+        os.environ["XDG_CACHE_HOME"] = tmp  # compiled kernels: none at first, then the ones compiled here
         for brush in args.brushes:
+            searched = [side for side in sides if side != COMPILED or brush in SEARCH_MS]
+            if COMPILED in searched:  # the first compile, a new user's, timed apart: a tiny painting with and without
+                os.environ["PYTHONPATH"] = str(HERE / "src")
+                tiny = [paint_once(args.photo, brush, 20, Path(tmp) / "tiny", overrides=o)["wall"] for o in sides[COMPILED][1:] + [[]]]
+                compiles[brush] = tiny[0] - tiny[1]
             for strokes in args.strokes:
-                best = {side: {"wall": float("inf")} for side in sides}
+                best = {side: {"wall": float("inf")} for side in searched}
                 for _ in range(args.repeats):
-                    for side, src in sides.items():
+                    for side in searched:
+                        src, overrides = sides[side]
                         os.environ["PYTHONPATH"] = str(src)  # the subprocess imports this checkout's nsp
-                        out = Path(tmp) / side
-                        run = paint_once(args.photo, brush, strokes, out)
+                        run = paint_once(args.photo, brush, strokes, Path(tmp) / "run", overrides=overrides)
                         if run["wall"] < best[side]["wall"]:
                             best[side] = {"wall": run["wall"], "psnr": run["metrics"]["psnr"]}
                 points[brush, strokes] = best
-                a, b = best["A"], best["B"]
-                print(f"{brush} {strokes}: A {a['wall']:.1f} s {a['psnr']:.2f} dB, B {b['wall']:.1f} s {b['psnr']:.2f} dB",
+                print(f"{brush} {strokes}: " + ", ".join(f"{side} {b['wall']:.1f} s {b['psnr']:.2f} dB" for side, b in best.items()),
                       flush=True)
-    write(points, args.base_name, args.photo, args.repeats, args.date)
+    write(points, compiles, args.base_name, args.photo, args.repeats, args.date)
 
 
-def write(points: dict, base_name: str, photo: str, repeats: int, date: str) -> None:
+def write(points: dict, compiles: dict[str, float], base_name: str, photo: str, repeats: int, date: str) -> None:
     """The curves (:func:`plot`) and the "Time to quality" section of docs/benchmarks.md, from
-    ``points[brush, strokes][side] = {"wall": seconds, "psnr": dB}``."""
-    plot(points, {"A": "this commit", "B": base_name}, PLOT)
-    rows = ["| brush | strokes | wall A (s) | wall B (s) | A/B | PSNR A (dB) | PSNR B (dB) |", "|---|---:|---:|---:|---:|---:|---:|"]
+    ``points[brush, strokes][side] = {"wall": seconds, "psnr": dB}`` and the first compiles' seconds."""
+    plot(points, {"A": "this commit", "B": base_name, COMPILED: "this commit, renderer.compile=true"}, PLOT)
+    rows = ["| brush | strokes | wall A (s) | wall B (s) | A/B | PSNR A (dB) | PSNR B (dB) | wall A, compiled search (s) "
+            "| PSNR A, compiled search (dB) |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for (brush, strokes), best in points.items():
-        a, b = best["A"], best["B"]
+        a, b, c = best["A"], best["B"], best.get(COMPILED)
         rows.append(f"| {brush} | {strokes:,} | {a['wall']:.1f} | {b['wall']:.1f} | {a['wall'] / b['wall']:.2f} "
-                    f"| {a['psnr']:.2f} | {b['psnr']:.2f} |")
+                    f"| {a['psnr']:.2f} | {b['psnr']:.2f} | " + (f"{c['wall']:.1f} | {c['psnr']:.2f} |" if c else "— | — |"))
     brushes = list(dict.fromkeys(brush for brush, _ in points))
     budgets = list(dict.fromkeys(strokes for _, strokes in points))
     command = (f"python benchmarks/quality.py --base B --base-name '{base_name}' --photo {photo} --repeats {repeats} "
@@ -103,7 +118,10 @@ def write(points: dict, base_name: str, photo: str, repeats: int, date: str) -> 
         f"`python -m nsp.paint image={photo} brush=… strokes=…` on its defaults, the whole command in a fresh "
         f"process (start-up, painting, files), A (this commit) and B ({base_name}) in turn, one at a time; the "
         f"fastest of {repeats} each, and the PSNR its metrics.json gives (final.png against the photo at a "
-        "256-px long side).", "",
+        "256-px long side). *Compiled search*: A with `renderer.compile=true`, for the brushes whose soft renders "
+        "search for each pixel's nearest point of a curve (the other brushes have none), its kernel compiled once "
+        "before (a new user's first compile, the difference of a 20-stroke painting with and without it: "
+        + ", ".join(f"{brush} {seconds:.0f} s" for brush, seconds in compiles.items()) + ").", "",
         f"Command: `{command}`  ", f"Machine: {machine()}, no GPU, nothing else running; {date}", "",
         "![PSNR against seconds per brush](img/time_to_quality.png)", "", *rows]))
 

@@ -109,6 +109,40 @@ def test_compiled_engine_matches_eager(name, generator):
     assert ((fused - eager).abs() > 1e-4).float().mean() < 1e-4
 
 
+@pytest.mark.parametrize("name", ["watercolor", "markerpen"])
+def test_soft_render_with_the_compiled_search_matches_eager_with_its_gradients(name, generator):
+    from nsp.engine.fused import fused_search
+
+    brush = BRUSHES[name]
+    x = moderate(brush, 40, generator)
+    outputs, grads = [], []
+    for search in (None, fused_search(brush)):
+        strokes = x.clone().requires_grad_()
+        fg, alpha = render(brush, strokes, 48, softness=0.25, search=search)
+        ((fg * torch.linspace(0, 1, 48)).sum() + alpha.sum()).backward()  # a loss that weighs where the colour falls
+        outputs.append(torch.cat([fg, alpha], 1).detach())
+        grads.append(strokes.grad)
+    assert (outputs[0] - outputs[1]).abs().max() < 1e-3  # the compiled cubic rounds differently
+    assert torch.allclose(grads[0], grads[1], rtol=1e-2, atol=1e-2 * float(grads[0].abs().max()))
+    assert grads[0].abs().sum() > 0
+
+
+def test_the_compiled_search_is_chosen_only_where_it_pays(monkeypatch, tmp_path):
+    from nsp.engine import fused
+    from nsp.engine.kernels import nearest_points
+
+    brush = BRUSHES["watercolor"]
+    monkeypatch.setattr(fused, "CACHE", tmp_path)  # a machine that never compiled
+    assert not fused.search_pays(brush, 5000)  # seconds of eager search: not worth a first compile
+    assert fused.search_pays(brush, 100_000)
+    kernel = fused.package(nearest_points, brush, dict(samples=12, pixels=64), torch.device("cpu"))
+    kernel.parent.mkdir(parents=True)
+    kernel.touch()
+    assert fused.search_pays(brush, 500)  # on disk: loading it pays
+    assert not fused.search_pays(BRUSHES["markerpen"], 500)  # another brush's kernel
+    assert not any(fused.search_pays(BRUSHES[name], 10**9) for name in ("oilpaint", "tape"))  # they search for nothing
+
+
 def test_empty_batch_and_far_away_strokes_render_empty():
     brush = BRUSHES["tape"]
     fg, alpha = render(brush, torch.zeros(0, brush.d), 16)

@@ -21,7 +21,8 @@ from torch import Tensor
 from nsp import brushes
 from nsp.brushes.base import Brush
 from nsp.engine import kernels
-from nsp.engine.kernels import near_tiles, shade_tiles
+from nsp.brushes.geometry import Search
+from nsp.engine.kernels import near_tiles, nearest_points, shade_tiles
 from nsp.files import remove_leftovers
 
 log = logging.getLogger(__name__)
@@ -35,6 +36,11 @@ CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" /
 EAGER_NS = {"watercolor": 150.0, "markerpen": 95.0, "tape": 80.0, "oilpaint": 135.0}
 COMPILED_SHARE = {"watercolor": 0.15, "markerpen": 0.2, "tape": 0.5, "oilpaint": 0.57}
 COMPILE_SECONDS = 120.0  # compiling a brush's culling and shading kernels the first time: 20–60 s here, ×2 for a busy machine
+# The painter's eager nearest-point search, ms a stroke painted (astronaut, 5000 strokes, threads=1),
+# and the share of that time its compiled kernel takes (4000 pairs of 64 pixels, 1 thread).
+SEARCH_MS = {"watercolor": 3.0, "markerpen": 1.5}
+SEARCH_SHARE = 0.15
+SEARCH_COMPILE_SECONDS = 30.0  # its first compile: 12–15 s here beside two busy processes, ×2 for slower machines
 MOST_PAIRS = 1 << 24  # the largest batch of (stroke, tile) pairs a kernel takes
 HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-px tiles
 
@@ -88,8 +94,7 @@ def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple
     from torch._inductor import aoti_compile_and_package  # imported only to compile: ~1.5 s
 
     path = package(stage, brush, consts, device)
-    paired = (brush.sample(HINT_PAIRS, device=device),
-              *(p[:1].expand(HINT_PAIRS, *p.shape[1:]).contiguous() for p in paired[1:]))
+    paired = tuple(p[:1].expand(HINT_PAIRS, *p.shape[1:]).contiguous() for p in paired)
     pairs = torch.export.Dim("pairs", min=2, max=MOST_PAIRS)
     with torch.no_grad():
         stage(brush, *paired, *fixed, **consts)  # eagerly first: state a brush builds lazily (a texture) is then a constant
@@ -133,3 +138,25 @@ def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, 
         return stage(brush, *paired, *fixed, **consts)
     out = kernel.boxed_run([p.contiguous() for p in paired] + list(fixed))
     return out[0] if len(out) == 1 else tuple(out)
+
+
+def fused_search(brush: Brush) -> Search:
+    """:func:`~nsp.brushes.geometry.nearest_search` of ``brush`` by its compiled kernel
+    (:func:`~nsp.engine.kernels.nearest_points`, compiled first if this machine has none): for the
+    painter's soft renders, whose shading is differentiated, so eager, all but this search."""
+    def search(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper: Tensor | None, samples: int):
+        px, py = px.expand(len(p0), -1), py.expand(len(p0), -1)
+        taper = p0.new_zeros(len(p0)) if taper is None else taper
+        return fused(nearest_points, brush, (p0, a, b, px, py, taper), (), samples=samples, pixels=px.shape[1])
+    return search
+
+
+def search_pays(brush: Brush, strokes: int) -> bool:
+    """Whether painting ``strokes`` strokes of ``brush`` is expected to finish sooner with the soft
+    renders' nearest-point search compiled (:func:`fused_search`; a first compile included). Brushes
+    that search for no nearest point never."""
+    if brush.name not in SEARCH_MS:
+        return False
+    cached = any(package(nearest_points, brush, {}, torch.device("cpu")).parent.glob(
+        f"{nearest_points.__name__}-{brush.name}{brush.d}-{brush.variant}-*"))
+    return strokes * SEARCH_MS[brush.name] * 1e-3 * (1 - SEARCH_SHARE) > (0.0 if cached else SEARCH_COMPILE_SECONDS)

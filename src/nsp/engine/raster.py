@@ -16,6 +16,7 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush
 from nsp.brushes.bristles import stroke_keys
+from nsp.brushes.geometry import Search
 from nsp.engine.fused import fused
 from nsp.engine.kernels import near_tiles, shade_tiles, tile_offsets
 
@@ -118,6 +119,7 @@ def rasterize(
     tile: int = 8,
     compile: bool = False,
     first: int = 0,
+    search: Search | None = None,
 ) -> Tiles:
     """Evaluate strokes ``x`` (B, d), numbers ``first``, …, ``first`` + B − 1 of their painting,
     on the tiles of a ``height``×``width`` canvas they touch.
@@ -125,10 +127,14 @@ def rasterize(
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
     before ``brush.paint`` shades their pixels. ``compile`` shades them by the brush's compiled
     kernel (:func:`nsp.engine.fused.fused`): several times faster, once this machine has compiled
-    it (:func:`nsp.engine.fused.pays` tells when that is worth it).
+    it (:func:`nsp.engine.fused.pays` tells when that is worth it). ``search``: how the eager
+    shading's Bézier brushes find their nearest points (:class:`~nsp.brushes.base.Pixels`; the
+    compiled shading has its own).
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
     run = fused if compile else (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
+    shade = fused if compile else (lambda stage, brush, paired, fixed, **consts:
+                                   stage(brush, *paired, *fixed, search=search, **consts))
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
@@ -154,7 +160,7 @@ def rasterize(
         key = stroke_keys(brush.seed, torch.arange(first, first + len(x), device=x.device))[b]
     else:
         key = t  # an int64 a pair, unread
-    passes = [run(shade_tiles, brush, (xs, ts, ks), (dx, dy), height=height, width=width, tile=tile, softness=softness)
+    passes = [shade(shade_tiles, brush, (xs, ts, ks), (dx, dy), height=height, width=width, tile=tile, softness=softness)
               for xs, ts, ks in zip(x[b].split(step), t.split(step), key.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
@@ -201,6 +207,7 @@ def render(
     tile: int = 8,
     compile: bool = False,
     out: Tensor | None = None,
+    search: Search | None = None,
 ) -> tuple[Tensor, Tensor]:
     """Render strokes on their own, each on an empty canvas.
 
@@ -214,12 +221,13 @@ def render(
         compile: shade the pixels through the compiled path (see :func:`rasterize`).
         out: optional (B, 4, H, W) tensor to render into, reused across calls: a fresh tensor of
             tens of megabytes costs the operating system's page faults on every call.
+        search: how the eager shading's Bézier brushes find their nearest points (see :func:`rasterize`).
 
     Returns:
         foreground (B, 3, H, W) and alpha (B, 1, H, W), both in [0, 1] (views of ``out`` if given).
     """
     width = height if width is None else width
-    tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile)
+    tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile, search=search)
     rows, cols, n = tiles.rows, tiles.cols, len(x)
     if out is None and (tiles.fg.requires_grad or tiles.alpha.requires_grad):  # differentiated: the soft mode
         fg, alpha = (dense(v, tiles.stroke, tiles.tile, n, rows, cols)[..., :height, :width]

@@ -14,6 +14,7 @@ from torch import Tensor, nn
 
 from nsp.brushes import Brush
 from nsp.engine import render
+from nsp.engine.fused import fused_search, search_pays
 from nsp.errors import BadInput
 from nsp.renderers.checkpoint import load_renderer
 
@@ -26,18 +27,21 @@ class AnalyticRenderer:
         softness: edge width in block pixels; wider edges reach further but blur the optimum.
             None: the brush's own.
         block_size: the largest block side rendered; bigger blocks are optimized downsampled.
+        compile: a Bézier brush's nearest-point search on its compiled kernel
+            (:func:`nsp.engine.fused.fused_search`): the same strokes, to float rounding, faster.
     """
 
-    def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64):
+    def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64, compile: bool = False):
         self.brush, self.block_size = brush, block_size
         self.softness = brush.softness if softness is None else softness
+        self.search = fused_search(brush) if compile else None
 
     def resolution(self, side: int) -> int:
         """Pixels per side a block of ``side`` canvas pixels is optimized at."""
         return min(side, self.block_size)
 
     def __call__(self, x: Tensor, size: int) -> tuple[Tensor, Tensor]:
-        return render(self.brush, x, size, softness=self.softness)
+        return render(self.brush, x, size, softness=self.softness, search=self.search)
 
 
 class NeuralRenderer:
@@ -66,11 +70,14 @@ def load_neural(path: str | Path, brush: Brush, device: torch.device | str = "cp
     return NeuralRenderer(network.to(device), size)
 
 
-def build_renderer(cfg: Any, brush: Brush, device: torch.device | str = "cpu") -> AnalyticRenderer | NeuralRenderer:
+def build_renderer(cfg: Any, brush: Brush, device: torch.device | str = "cpu",
+                   strokes: int = 0) -> AnalyticRenderer | NeuralRenderer:
     """The painter's renderer a config's ``renderer`` node (nsp.painter.schema.RendererConfig) names:
-    the analytic one, or the network of its checkpoint on ``device``."""
+    the analytic one (``compile`` None: compiled where painting ``strokes`` strokes pays,
+    :func:`~nsp.engine.fused.search_pays`), or the network of its checkpoint on ``device``."""
     if cfg.name == "analytic":
-        return AnalyticRenderer(brush, cfg.softness, cfg.block_size)
+        pays = torch.device(device).type == "cpu" and search_pays(brush, strokes)  # its estimates are the CPU's
+        return AnalyticRenderer(brush, cfg.softness, cfg.block_size, pays if cfg.compile is None else cfg.compile)
     if cfg.checkpoint is None:
         raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
     return load_neural(cfg.checkpoint, brush, device)

@@ -97,7 +97,7 @@ def prepare(cfg: DictConfig, photo: torch.Tensor | None = None) -> tuple[Painter
         check_canvas(*long_side(*photo.shape[-2:], cfg.render_size), "render_size")  # before hours of painting
         check_canvas(*long_side(*photo.shape[-2:], cfg.animation_size), "animation_size",
                      frames=len(frame_ends(cfg.strokes, cfg.animation_frames)))
-        renderer = build_renderer(cfg.renderer, brush, device)
+        renderer = build_renderer(cfg.renderer, brush, device, cfg.strokes)
         if cfg.style.steps < 0 or cfg.style.size <= 0:
             raise BadInput(f"style.steps={cfg.style.steps}, style.size={cfg.style.size}: expected steps ≥ 0, size > 0")
         if cfg.style.weight < 0:

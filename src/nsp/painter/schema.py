@@ -25,6 +25,9 @@ class RendererConfig:
     name: RendererName = RendererName.analytic
     softness: Optional[float] = None  # analytic: edge width in block pixels; None: the brush's own (Brush.softness)
     block_size: int = 64  # analytic: blocks are optimized at most this many pixels wide
+    # analytic: the Bézier brushes' nearest-point search on its compiled kernel (nsp.engine.fused.fused_search;
+    # the first time on a machine 15–60 s, loaded in ms later); None: where it is expected to pay (search_pays)
+    compile: Optional[bool] = None
     checkpoint: Optional[str] = None  # neural: path of the checkpoint (required)
 
 
