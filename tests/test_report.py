@@ -253,6 +253,7 @@ def test_jobs_of_an_aborted_sweep_that_never_began_are_rows_too(tmp_path):
     report = write_report(tmp_path)[0].read_text()
     assert "4 jobs: 2 completed, 2 not run." in report
     assert "- job 2: the sweep ended before this job began" in report
+    assert "| dual | not run | not run |" in report  # a sweep still to resume, not a failure
 
 
 def test_a_rate_left_at_its_default_is_the_rate_the_run_recorded(tmp_path):

@@ -11,7 +11,7 @@ import statistics
 from dataclasses import dataclass
 from numbers import Number
 
-from nsp.reporting.collect import Job, swept_keys
+from nsp.reporting.collect import FAILED, Job, swept_keys
 
 # Paper Table 1 (128 px, mean PSNR of foreground and alpha, dB); Fig. 9 gives curves, no numbers.
 PAPER_PSNR = {
@@ -137,7 +137,7 @@ def is_renderer_sweep(jobs: list[Job]) -> bool:
 
 def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
     """The study's table: a row per setting (renderer, lr, …), a column per brush, each cell the
-    headline metric as mean ± std over seeds (``failed`` when no job of it completed), with the
+    headline metric as mean ± std over seeds (:func:`unfinished` when no job of it completed), with the
     paper's figure beside a brush where the paper has any, and the learning rate each row used."""
     metric, keys = headline(jobs), group_keys(jobs)
     settings = list(dict.fromkeys(tuple(job.choice(k) for k in keys) for job in jobs))
@@ -156,12 +156,19 @@ def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
         for brush in brushes:
             cell = [job for job in same if job.choice(PANEL) == brush]
             score = stat(cell, metric)
-            row.append(str(score) if score else ("failed" if cell else None))
+            row.append(str(score) if score else (unfinished(cell) if cell else None))
             if brush in with_paper:
                 paper = PAPER_PSNR.get((dict(zip(keys, setting)).get("renderer"), brush))
                 row.append(None if paper is None else f"{paper:.2f}")
         rows.append(row)
     return header, rows
+
+
+def unfinished(cell: list[Job]) -> str:
+    """What a table cell whose jobs gave no score says: ``failed`` where one of them failed, else
+    their status (``interrupted``, ``not run``: a sweep still to be resumed)."""
+    statuses = {job.status for job in cell}
+    return FAILED if FAILED in statuses else ", ".join(sorted(statuses))
 
 
 def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
