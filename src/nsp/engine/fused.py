@@ -22,7 +22,7 @@ from nsp import brushes
 from nsp.brushes.base import Brush
 from nsp.engine import kernels
 from nsp.brushes.geometry import Search
-from nsp.engine.kernels import near_tiles, nearest_points, shade_tiles
+from nsp.engine.kernels import nearest_points, shade_tiles
 from nsp.files import remove_leftovers
 
 log = logging.getLogger(__name__)
@@ -36,11 +36,10 @@ CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" /
 EAGER_NS = {"watercolor": 150.0, "markerpen": 95.0, "tape": 80.0, "oilpaint": 135.0}
 COMPILED_SHARE = {"watercolor": 0.15, "markerpen": 0.2, "tape": 0.5, "oilpaint": 0.57}
 COMPILE_SECONDS = 120.0  # compiling a brush's culling and shading kernels the first time: 20–60 s here, ×2 for a busy machine
-# The painter's eager nearest-point search, ms a stroke painted (astronaut, 5000 strokes, threads=1),
-# and the share of that time its compiled kernel takes (4000 pairs of 64 pixels, 1 thread).
-SEARCH_MS = {"watercolor": 3.0, "markerpen": 1.5}
-SEARCH_SHARE = 0.15
-SEARCH_COMPILE_SECONDS = 30.0  # its first compile: 12–15 s here beside two busy processes, ×2 for slower machines
+# What the painter's compiled nearest-point search saves, ms a stroke painted (benchmarks/quality.py:
+# astronaut, 2000 and 5000 strokes, 2 threads), and its first compile (15 s there), ×2 for busier machines.
+SEARCH_SAVED_MS = {"watercolor": 1.1, "markerpen": 0.6}
+SEARCH_COMPILE_SECONDS = 30.0
 MOST_PAIRS = 1 << 24  # the largest batch of (stroke, tile) pairs a kernel takes
 HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-px tiles
 
@@ -155,8 +154,7 @@ def search_pays(brush: Brush, strokes: int) -> bool:
     """Whether painting ``strokes`` strokes of ``brush`` is expected to finish sooner with the soft
     renders' nearest-point search compiled (:func:`fused_search`; a first compile included). Brushes
     that search for no nearest point never."""
-    if brush.name not in SEARCH_MS:
+    if brush.name not in SEARCH_SAVED_MS:
         return False
-    cached = any(package(nearest_points, brush, {}, torch.device("cpu")).parent.glob(
-        f"{nearest_points.__name__}-{brush.name}{brush.d}-{brush.variant}-*"))
-    return strokes * SEARCH_MS[brush.name] * 1e-3 * (1 - SEARCH_SHARE) > (0.0 if cached else SEARCH_COMPILE_SECONDS)
+    cached = any((CACHE / torch.__version__ / _code()).glob(f"{nearest_points.__name__}-{brush.name}{brush.d}-{brush.variant}-*"))
+    return strokes * SEARCH_SAVED_MS[brush.name] * 1e-3 > (0.0 if cached else SEARCH_COMPILE_SECONDS)
