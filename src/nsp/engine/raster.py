@@ -133,8 +133,7 @@ def rasterize(
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
     run = fused if compile else (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
-    shade = fused if compile else (lambda stage, brush, paired, fixed, **consts:
-                                   stage(brush, *paired, *fixed, search=search, **consts))
+    shade = fused if compile else (lambda *args, **consts: run(*args, search=search, **consts))
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
