@@ -273,3 +273,18 @@ def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_str
             assert len(drawn) == len(painted) and all((a == b).all() for a, b in zip(drawn, painted))
     write_svg(tmp_path / "own.svg", BRUSHES["oilpaint"], painting.strokes, 64, 96)  # nsp's own texture: another SVG
     assert (tmp_path / "own.svg").read_text() != (out / "painting.svg").read_text()
+
+
+def test_the_command_ends_at_once_with_its_files_and_its_log_complete(tmp_path):
+    """``python -m nsp.paint`` ends without Python's tear-down (nsp.cli.program): what it wrote is
+    all there, flushed, and its status is the work's."""
+    result = run(*TINY[:4], "progress=false", f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    last = result.stdout.strip().splitlines()[-1]
+    assert last.startswith("painted 12 oilpaint strokes") and last.endswith(str(tmp_path / "run"))
+    assert (tmp_path / "run" / "paint.log").read_text().strip().splitlines()[-1].endswith(last)
+    assert json.loads((tmp_path / "run" / "metrics.json").read_text())["strokes"] == 12
+    events = list((tmp_path / "run").glob("events.out.tfevents.*"))
+    assert len(events) == 1 and events[0].stat().st_size > 1000
+    refused = run(*TINY[:4], "progress=false", "strokes=-1", f"hydra.run.dir={tmp_path / 'bad'}", cwd=tmp_path)
+    assert refused.returncode == 2 and refused.stderr.strip().splitlines() == ["error: strokes=-1: expected a positive number"]

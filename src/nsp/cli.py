@@ -401,6 +401,25 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
         fail(f"{error.strerror}: {error.filename or 'a run file'}; free space or name another dir (hydra.run.dir, hydra.sweep.dir)", FAILED)
 
 
+def program(cli: Callable[[], None]) -> NoReturn:
+    """Run a command's ``cli()`` as the whole process (``python -m nsp.paint``, ``nsp-paint``) and end
+    it with its exit status at once, its output flushed and its logs closed: what Python's own
+    tear-down would do after torch, about 0.4 s on a 2-core machine, writes nothing. A sweep ends
+    the usual way, so its launcher stops its worker processes."""
+    if any(arg in ("-m", "--multirun") for arg in sys.argv[1:]):
+        cli()
+        sys.exit()
+    try:
+        cli()
+        code = 0
+    except SystemExit as exit:
+        code = exit.code if isinstance(exit.code, int) else 0 if exit.code is None else (print(exit.code, file=sys.stderr) or 1)
+    logging.shutdown()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
 def _unmade_run(out: Path) -> None:
     """A single run refused a value before its work began: its default (time-stamped) dir goes, if
     it holds nothing but what Hydra put there (``.hydra/``, the log), so nothing looks like a run. A

@@ -14,7 +14,7 @@ from pathlib import Path
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import MISSING, DictConfig
 
-from nsp.cli import INTERRUPTED, command, in_sweep, kept, run_job
+from nsp.cli import INTERRUPTED, command, in_sweep, kept, program, run_job
 from nsp.config import BrushConfig
 from nsp.painter.schema import PaintConfig, follows_checkpoint  # config only: no torch
 from nsp.text import counted
@@ -62,5 +62,10 @@ def cli() -> None:
     command("paint", main, schema, text=TEXT)
 
 
+def run() -> None:
+    """``python -m nsp.paint`` and ``nsp-paint``: :func:`cli` as the whole process (:func:`nsp.cli.program`)."""
+    program(cli)
+
+
 if __name__ == "__main__":
-    cli()
+    run()

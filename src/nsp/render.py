@@ -12,7 +12,7 @@ from typing import Any, Optional
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, OmegaConf
 
-from nsp.cli import command, fail
+from nsp.cli import command, fail, program
 from nsp.errors import BadInput
 
 TEXT = ("strokes", "out", "background")  # free text: paths, ``#rrggbb``
@@ -98,5 +98,10 @@ def cli() -> None:
     command("render", main, schema, text=TEXT)
 
 
+def run() -> None:
+    """``python -m nsp.render`` and ``nsp-render``: :func:`cli` as the whole process (:func:`nsp.cli.program`)."""
+    program(cli)
+
+
 if __name__ == "__main__":
-    cli()
+    run()
