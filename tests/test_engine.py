@@ -327,3 +327,27 @@ def test_openmp_threads_spin_briefly_then_sleep_unless_the_user_chose_a_policy(g
                             "os.environ.get('GOMP_SPINCOUNT'))"], env=env | given, capture_output=True, text=True,
                            check=True).stdout.split()
     assert shown == expected
+
+
+@pytest.mark.parametrize("name", ["oilpaint", "tape"])
+def test_stroke_images_composited_in_order_are_the_painting(name):
+    """What an SVG of stroke images holds (paint_canvas's ``images``): each stroke alone on the
+    pixels it covers, which, blended in order over the canvas, give the painting itself; a stroke
+    off the canvas has an empty image."""
+    brush = BRUSHES[name]
+    x = brush.sample(60, torch.Generator().manual_seed(3))
+    x[:, 2:4] *= 0.4
+    x[-1, :2] = torch.tensor([0.0, 1.0])  # centred on a corner: its image is a quarter of it
+    x[-2, 0], x[-2, 2:4] = 1.0, 0.001  # a sliver on the right edge
+    images = []
+    with torch.no_grad():
+        painting = paint_canvas(brush, x, 70, 90, "white", images=images)
+    canvas = torch.ones(70, 90, 3)
+    assert len(images) == len(x)
+    for left, top, image in images:
+        h, w = image.shape[:2]
+        assert 0 <= left and left + w <= 90 and 0 <= top and top + h <= 70 and image.min() >= 0 and image.max() <= 1
+        region = canvas[top : top + h, left : left + w]
+        region += image[..., 3:] * (image[..., :3] - region)
+    torch.testing.assert_close(canvas.permute(2, 0, 1), painting, atol=1e-5, rtol=0)
+    assert 0 < images[-1][2].shape[0] * images[-1][2].shape[1] < 0.5 * (x[-1, 2] * 90) ** 2

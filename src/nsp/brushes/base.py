@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import torch
@@ -59,6 +60,7 @@ class Brush:
     texture_path: str | None = None  # the image of an oil brush's bristle texture; None: nsp's own
     seed: int = 0  # with each stroke's index, what a brush whose paint varies by stroke draws it from
     reference: tuple[int, int] = (0, 0)
+    svg_painted: ClassVar[bool] = False  # its SVG holds each stroke's paint as an image (see svg_elements)
     # astronaut, 500 strokes, seeds 0–2 (docs/benchmarks.md): 0.25 over 0.5 +0.14 to +0.26 dB for the
     # translucent and thin brushes; oil's whole image −0.18 dB (its face +0.8), so oil keeps 0.5
     softness: float = 0.25
@@ -128,7 +130,9 @@ class Brush:
         raise NotImplementedError
 
     def svg_elements(self, strokes: np.ndarray, height: int, width: int) -> Iterator[tuple[str, str]]:
-        """:meth:`svg` of each stroke (N, d), in order (a brush may make them together)."""
+        """:meth:`svg` of each stroke (N, d), in order (a brush may make them together). A brush whose
+        paint has no vector form (``svg_painted``) has none: its SVG holds each stroke's paint as an
+        image (:func:`nsp.brushes.svg.image_element`)."""
         for index, p in enumerate(strokes):
             yield self.svg(index, p, height, width)
 

@@ -6,8 +6,8 @@ import dataclasses
 import functools
 import hashlib
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import ClassVar
 from pathlib import Path
 
 import numpy as np
@@ -17,13 +17,11 @@ from torch import Tensor
 
 from nsp.brushes import bristles
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.svg import png_data_uri
 from nsp.brushes.tape import rectangle, rectangle_extent
 from nsp.brushes.texture import EMBEDDED, load_texture
-from nsp.brushes.geometry import antialiased, box
+from nsp.brushes.geometry import box
 
 _OPAQUE = 0.4  # a user texture's values above this are fully covered with paint
-SVG_PIXELS = 1 << 16  # pixels of the strokes' SVG images evaluated at once
 
 
 def sample(texture: Tensor, u: Tensor, v: Tensor) -> Tensor:
@@ -45,6 +43,7 @@ class OilPaint(Brush):
     grayscale image stretched over each stroke (``texture_path``: a path, or an embedded PNG, see
     :mod:`nsp.brushes.texture`); ``impasto`` lights its relief."""
 
+    svg_painted: ClassVar[bool] = True  # its paint has no vector form
     impasto: bool = True
     detail: bool = True  # False: the bristles' mean at any size (see Brush.plain)
     _cache: dict = field(default_factory=dict, repr=False)
@@ -119,40 +118,6 @@ class OilPaint(Brush):
                      + (sample(texture, u, v + dv) - sample(texture, u, v - dv)) * light[1])
             shade = shade * (1 - bristles.LIT * 2 * slope)
         return bristles.Surface((value / _OPAQUE).clamp(0, 1), shade, torch.full_like(value, -math.inf))
-
-    def svg_images(self, strokes: np.ndarray, height: int, width: int) -> Iterator[tuple[int, int, np.ndarray]]:
-        """Each stroke's paint (N, d) on the pixels of a ``height``×``width`` canvas its box covers,
-        as the engine paints them: the box's first column and row, and its colour and alpha
-        (h, w, 4) in [0, 1] (empty where the stroke misses the canvas). Every pixel of every stroke
-        is evaluated together, ``SVG_PIXELS`` at a time."""
-        x = torch.as_tensor(strokes, dtype=torch.float32)
-        box = rectangle_extent(x.double(), height, width)  # (N, 4) px: x_min, y_min, x_max, y_max
-        first = torch.ceil(box[:, :2] - 0.5).clamp(min=0).long()  # pixel centres within the box, on the canvas
-        last = torch.minimum(torch.floor(box[:, 2:] + 0.5).long(), torch.tensor([width - 1, height - 1]))
-        cols, rows = (last - first + 1).clamp(min=0).unbind(1)
-        counts = cols * rows
-        stroke = torch.repeat_interleave(torch.arange(len(x)), counts)  # (M,) a pixel's stroke
-        pixel = torch.arange(len(stroke)) - torch.repeat_interleave(counts.cumsum(0) - counts, counts)
-        px = (first[stroke, 0] + pixel % cols[stroke]).float()
-        py = (first[stroke, 1] + torch.div(pixel, cols[stroke], rounding_mode="floor")).float()
-        key = bristles.stroke_keys(self.seed, stroke)
-        parts = []
-        for part in torch.arange(len(stroke)).split(SVG_PIXELS):
-            color, alpha = self.paint(x[stroke[part]], Pixels(px[part, None], py[part, None], height, width,
-                                                               key[part, None]), antialiased)
-            parts.append(torch.cat([color[:, :, 0], alpha], 1).clamp(0, 1))
-        pixels = torch.cat(parts) if parts else torch.zeros(0, 4)
-        for (left, top), image, h, w in zip(first.tolist(), pixels.split(counts.tolist()), rows.tolist(), cols.tolist()):
-            yield left, top, image.reshape(h, w, 4).numpy()
-
-    def svg_elements(self, strokes: np.ndarray, height: int, width: int) -> Iterator[tuple[str, str]]:
-        """Each stroke as an image of its paint on the canvas pixels it covers, placed pixel on pixel:
-        a browser draws what final.png shows, at the painting's own size."""
-        for left, top, image in self.svg_images(strokes, height, width):
-            h, w = image.shape[:2]
-            if h and w:  # a stroke off the canvas has no element
-                yield "", f'<image x="{left - 0.5}" y="{top - 0.5}" width="{w}" height="{h}" href="{png_data_uri(image)}"/>'
-
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
         sizes = (1 + ctt[:, 2:4] * width) / width  # extents 1 + w·W px -> fraction of W; its alpha is unused

@@ -20,6 +20,13 @@ def png_data_uri(image: np.ndarray) -> str:
     return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode()
 
 
+def image_element(left: int, top: int, image: np.ndarray) -> str:
+    """A stroke's paint (h, w, 4) in [0, 1] as an image whose first pixel lies on canvas pixel (left, top):
+    a browser draws it pixel on pixel, as final.png shows it."""
+    h, w = image.shape[:2]
+    return f'<image x="{left - 0.5}" y="{top - 0.5}" width="{w}" height="{h}" href="{png_data_uri(image)}"/>'
+
+
 def rectangle_frame(p: np.ndarray, height: int, width: int) -> str:
     """The transform taking the unit square to the rectangle p[0:5] = x, y, w, h, θ, in pixels."""
     cx, cy, w, h = p[0] * (width - 1), p[1] * (height - 1), max(p[2] * width, 1e-3), max(p[3] * width, 1e-3)

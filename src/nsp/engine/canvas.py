@@ -10,7 +10,7 @@ from torch import Tensor
 from nsp.brushes.base import Brush
 from nsp.colors import parse_color
 from nsp.engine.fused import pays
-from nsp.engine.raster import composite_tiles, rasterize, to_tiles, untile
+from nsp.engine.raster import Tiles, composite_tiles, rasterize, to_tiles, untile
 
 CHUNK_PIXELS = 1 << 24  # bounding-box pixels of the strokes rendered at once; their tiles take ~16 B a pixel
 CHUNK_STROKES = 1024  # and the most strokes
@@ -33,6 +33,37 @@ def chunks(brush: Brush, strokes: Tensor, height: int, width: int, most: int = C
     return parts
 
 
+def box_images(brush: Brush, strokes: Tensor, tiles: Tiles, height: int, width: int) -> list[tuple[int, int, Tensor]]:
+    """The ``tiles`` of ``strokes`` (n, d) on a ``height``×``width`` canvas as an image a stroke:
+    its first column and row on the canvas, and its colour and alpha (h, w, 4) in [0, 1] (a view),
+    over the canvas pixels of its box that its tiles cover (empty where it has none); elsewhere
+    the stroke is transparent."""
+    b, t, side = tiles.stroke, tiles.tile, math.isqrt(tiles.alpha.shape[1])
+    n, zero = len(strokes), torch.zeros(len(strokes), dtype=torch.long, device=t.device)
+    row, col = torch.div(t, tiles.cols, rounding_mode="floor"), t % tiles.cols
+    r0, c0 = zero.scatter_reduce(0, b, row, "amin", include_self=False), zero.scatter_reduce(0, b, col, "amin", include_self=False)
+    r1, c1 = zero.scatter_reduce(0, b, row, "amax", include_self=False), zero.scatter_reduce(0, b, col, "amax", include_self=False)
+    lines, cols = ((r1 - r0 + 1) * side).where(torch.bincount(b, minlength=n) > 0, 0), (c1 - c0 + 1) * side
+    areas = lines * cols  # each stroke's tiles' rectangle, in pixels
+    starts = areas.cumsum(0) - areas  # in one buffer of all of them
+    offsets = torch.arange(side, device=t.device)
+    where = (starts[b, None] + ((row - r0[b]) * side)[:, None] * cols[b, None] + offsets.repeat_interleave(side)[None] * cols[b, None]
+             + ((col - c0[b]) * side)[:, None] + offsets.repeat(side)[None])  # (P, side²): pixel k of a tile on row k // side
+    pixels = torch.cat([tiles.fg, tiles.alpha[:, None]], 1).clamp(0, 1).transpose(1, 2).reshape(-1, 4)
+    images = pixels.new_zeros(int(areas.sum()), 4).index_copy_(0, where.flatten(), pixels)
+    box = brush.extent(strokes.detach().double(), height, width)  # (n, 4) px: x_min, y_min, x_max, y_max
+    first = torch.maximum(torch.ceil(box[:, :2] - 0.5).long(), torch.stack([c0, r0], 1) * side)  # within both, and the canvas
+    last = torch.minimum(torch.floor(box[:, 2:] + 0.5).long(), torch.stack([c1 + 1, r1 + 1], 1) * side - 1)
+    last = torch.minimum(last, torch.tensor([width - 1, height - 1]))
+    out = []
+    for (left, top), (right, bottom), image, h, w, y0, x0 in zip(first.tolist(), last.tolist(), images.split(areas.tolist()),
+                                                                  lines.tolist(), cols.tolist(), (r0 * side).tolist(),
+                                                                  (c0 * side).tolist()):
+        image = image.view(h, w, 4)[max(top - y0, 0) : max(bottom + 1 - y0, 0), max(left - x0, 0) : max(right + 1 - x0, 0)]
+        out.append((left, top, image))
+    return out
+
+
 class TiledCanvas:
     """A canvas kept as tiles (rows·cols, 3, tile²) while strokes are painted onto it, so painting
     a few strokes costs only the tiles they touch, and a region is read back without untiling the
@@ -45,16 +76,18 @@ class TiledCanvas:
         self.tiles = to_tiles(canvas, tile)  # a copy: strokes are blended into it in place
 
     def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = CHUNK_STROKES,
-              compile: bool = False, first: int = 0) -> None:
+              compile: bool = False, first: int = 0, images: list | None = None) -> None:
         """Composite ``strokes`` (N, d), numbers ``first``, … of their painting, in order, a
         :func:`chunks` at a time (memory stays bounded); ``compile``: shade them on the compiled
-        path (:mod:`nsp.engine.fused`)."""
+        path (:mod:`nsp.engine.fused`); ``images``, if given, gets each stroke's :func:`box_images`
+        from the same tiles."""
         for _ in self.paint_until(brush, strokes, [len(strokes)], softness=softness, chunk=chunk, compile=compile,
-                                  first=first):
+                                  first=first, images=images):
             pass
 
     def paint_until(self, brush: Brush, strokes: Tensor, ends: list[int], *, softness: float | None = None,
-                    chunk: int = CHUNK_STROKES, compile: bool = False, first: int = 0) -> Iterator[int]:
+                    chunk: int = CHUNK_STROKES, compile: bool = False, first: int = 0,
+                    images: list | None = None) -> Iterator[int]:
         """:meth:`paint`, pausing once strokes[:end] are on the canvas to yield ``end``, for each of
         ``ends`` (ascending, the last N): an animation's frames. Strokes are still rasterized a chunk
         at a time, not a frame at a time."""
@@ -63,6 +96,8 @@ class TiledCanvas:
         for part in chunks(brush, strokes, self.height, self.width, chunk):
             tiles = rasterize(brush, part, self.height, self.width, softness=softness, tile=self.tile, compile=compile,
                               first=first + done)
+            if images is not None:
+                images += box_images(brush, part, tiles, self.height, self.width)
             start, stop = done, done + len(part)
             while start < stop:  # the chunk's strokes up to the next end, or to its own end
                 until = min(stop, len(strokes) if end is None else end)
@@ -99,6 +134,7 @@ def paint_canvas(
     tile: int = 8,
     compile: bool | None = None,
     first: int = 0,
+    images: list | None = None,
 ) -> Tensor:
     """Composite ``strokes`` (N, d), numbers ``first``, … of their painting, in order, onto a
     canvas: (3, H, W) in [0, 1].
@@ -107,6 +143,8 @@ def paint_canvas(
     a painting of thousands of strokes renders at any size in bounded memory.
     ``canvas`` (3, H, W), if given, replaces the plain ``background``. ``compile``: shade on the
     compiled path; None: where it is expected to finish sooner (:func:`nsp.engine.fused.pays`).
+    ``images``, if given, gets each stroke's :func:`box_images` (what an SVG holds of a brush whose
+    paint has no vector form), from the same tiles.
     """
     if canvas is None:
         color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)
@@ -114,5 +152,5 @@ def paint_canvas(
     if compile is None:
         compile = pays(brush, strokes, height, width, softness)
     tiled = TiledCanvas(canvas, tile)
-    tiled.paint(brush, strokes, softness=softness, chunk=chunk, compile=compile, first=first)
+    tiled.paint(brush, strokes, softness=softness, chunk=chunk, compile=compile, first=first, images=images)
     return tiled.image()

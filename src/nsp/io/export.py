@@ -12,6 +12,7 @@ from torch import Tensor
 from nsp.brushes import Brush
 from nsp.colors import hex_color
 from nsp.colors import parse_color
+from nsp.brushes.svg import image_element
 from nsp.engine.canvas import TiledCanvas, paint_canvas
 from nsp.engine.fused import pays
 from nsp.errors import BadInput
@@ -98,14 +99,22 @@ def _indexed(image: Tensor, palette: Image.Image) -> Image.Image:
 
 
 def write_svg(
-    path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white"
+    path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
+    images: list | None = None,
 ) -> None:
-    """Each stroke as the brush's SVG elements, in painting order, on a ``height``×``width`` canvas
-    (an oil brush's texture, nsp's or the user's, embedded)."""
-    defs, body = [], []
-    for d, e in brush.svg_elements(strokes.detach().cpu().double().numpy(), height, width):
-        defs.append(d)
-        body.append(e)
+    """Each stroke as the brush's SVG elements, in painting order, on a ``height``×``width`` canvas;
+    a brush whose paint has no vector form (oil's bristles) as each stroke's paint, an image:
+    ``images``, the strokes' :func:`~nsp.engine.canvas.box_images` where a render already made them."""
+    if brush.svg_painted:
+        if images is None:
+            images = []
+            with torch.no_grad():
+                paint_canvas(brush, strokes.detach().cpu(), height, width, background, images=images)
+        elements = [("", image_element(left, top, image.numpy())) for left, top, image in images
+                    if image.numel()]  # a stroke off the canvas has none
+    else:
+        elements = list(brush.svg_elements(strokes.detach().cpu().double().numpy(), height, width))
+    defs, body = [d for d, _ in elements], [e for _, e in elements]
     svg = "\n".join(
         [
             f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '

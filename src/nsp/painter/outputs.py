@@ -17,13 +17,14 @@ SCORE_SIZE = 256  # long side at which psnr and ssim compare the painting with t
 
 
 def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str,
-                          render_size: int) -> Tensor:
+                          render_size: int, images: list | None = None) -> Tensor:
     """Write ``strokes.json`` and ``final.png`` (the engine, long side ``render_size``) of strokes
-    (N, d) painted on a canvas of ``aspect`` (height, width); returns the image (3, h, w)."""
+    (N, d) painted on a canvas of ``aspect`` (height, width); returns the image (3, h, w).
+    ``images``, if given, gets each stroke's image from the same render (see :func:`write_svg`)."""
     height, width = long_side(*aspect, render_size)
     save_strokes(out / "strokes.json", StrokeFile(brush, strokes, height, width, background))
     with torch.no_grad():
-        final = paint_canvas(brush, strokes, height, width, background)
+        final = paint_canvas(brush, strokes, height, width, background, images=images)
     write_png(out / "final.png", final)
     return final
 
@@ -33,19 +34,26 @@ def write_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int
     """Write every file of a painting: ``strokes.json`` and ``final.png`` (:func:`write_strokes_and_png`),
     ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order, long side
     ``animation_size``, at most ``frames`` frames after the empty canvas; None: one a stroke), on
-    ``workers`` threads of one torch thread each (the three are independent); returns final.png's
-    :func:`similarity` to ``photo``."""
+    ``workers`` threads of one torch thread each (the files are independent, but for an SVG of
+    stroke images, which final.png's render makes); returns final.png's :func:`similarity` to ``photo``."""
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # a file a core: each file's ops are too small to split well
+    images = [] if brush.svg_painted else None
     try:
-        with ThreadPoolExecutor(workers) as pool:  # the longest first: the SVG, then final.png and the GIF
-            svg = pool.submit(write_svg, out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background)
-            scored = pool.submit(lambda: similarity(write_strokes_and_png(out, strokes, brush, aspect, background,
-                                                                          render_size), photo))
+        with ThreadPoolExecutor(workers) as pool:  # the longest first: final.png, then the GIF and the SVG
+            final = pool.submit(write_strokes_and_png, out, strokes, brush, aspect, background, render_size, images)
             gif = pool.submit(write_gif, out / "animation.gif", brush, strokes, *long_side(*aspect, animation_size),
                               background, frames=frames)
+
+            def write_painting_svg() -> None:
+                if images is not None:
+                    final.result()  # its render makes them
+                write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background, images)
+
+            svg = pool.submit(write_painting_svg)
+            scores = similarity(final.result(), photo)  # while the GIF and the SVG are written
             svg.result(), gif.result()
-            return scored.result()
+            return scores
     finally:
         torch.set_num_threads(threads)
 
