@@ -351,3 +351,33 @@ def test_stroke_images_composited_in_order_are_the_painting(name):
         region += image[..., 3:] * (image[..., :3] - region)
     torch.testing.assert_close(canvas.permute(2, 0, 1), painting, atol=1e-5, rtol=0)
     assert 0 < images[-1][2].shape[0] * images[-1][2].shape[1] < 0.5 * (x[-1, 2] * 90) ** 2
+
+
+@pytest.mark.parametrize("name", ["oilpaint", "watercolor"])
+def test_blocks_composited_from_tiles_are_the_dense_composite_with_its_gradients(name):
+    """composite_blocks (the painter's soft renders, tiles only) equals render + composite, blocks of
+    different stroke counts included, and so do its gradients in the strokes and the backgrounds."""
+    from nsp.engine.raster import composite_blocks
+
+    brush, size = BRUSHES[name], 40
+    x = brush.sample(9, torch.Generator().manual_seed(5))
+    x[:, [2, 3] if name == "oilpaint" else [6, 7]] *= 0.5
+    block = torch.tensor([0, 0, 0, 0, 2, 2, 2, 3, 3])  # block 1 has none
+    under = torch.rand(4, 3, size, size, generator=torch.Generator().manual_seed(6))
+    weights = torch.rand(4, 3, size, size, generator=torch.Generator().manual_seed(7))
+    depth, place = 4, torch.tensor([0, 1, 2, 3, 0, 1, 2, 0, 1])
+
+    def dense(x, under):
+        fg, alpha = render(brush, x, size, softness=0.5)
+        stacked = fg.new_zeros(4, depth, 3, size, size).index_put((block, place), fg)
+        return composite(stacked, alpha.new_zeros(4, depth, 1, size, size).index_put((block, place), alpha), under)
+
+    grads = []
+    for paint in (dense, lambda x, under: composite_blocks(brush, x, block, under, softness=0.5)):
+        xs, bg = x.clone().requires_grad_(True), under.clone().requires_grad_(True)
+        out = paint(xs, bg)
+        (out * weights).sum().backward()
+        grads.append((out.detach(), xs.grad, bg.grad))
+    for want, got in zip(*grads):
+        torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-4)
+    assert grads[0][1].abs().sum() > 0 and torch.equal(grads[1][0][1], under[1])  # an empty block is its background

@@ -65,11 +65,12 @@ def in_layers(tile: Tensor) -> tuple[Tensor, list[int]]:
 
 
 def to_tiles(image: Tensor, tile: int) -> Tensor:
-    """(C, H, W) image -> (rows·cols, C, tile²) tiles, zero-padded to whole tiles."""
-    c, height, width = image.shape
-    rows, cols = math.ceil(height / tile), math.ceil(width / tile)
+    """(..., C, H, W) image -> (..., rows·cols, C, tile²) tiles, zero-padded to whole tiles; inverse of :func:`untile`."""
+    *lead, c, height, width = image.shape
+    rows, cols, n = math.ceil(height / tile), math.ceil(width / tile), len(lead)
     padded = torch.nn.functional.pad(image, (0, cols * tile - width, 0, rows * tile - height))
-    return padded.reshape(c, rows, tile, cols, tile).permute(1, 3, 0, 2, 4).reshape(rows * cols, c, tile * tile)
+    tiles = padded.reshape(*lead, c, rows, tile, cols, tile).permute(*range(n), n + 1, n + 3, n, n + 2, n + 4)
+    return tiles.reshape(*lead, rows * cols, c, tile * tile)
 
 
 def untile(tiles: Tensor, height: int, width: int, tile: int) -> Tensor:
@@ -308,7 +309,67 @@ def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
     The loop runs over the layers of :class:`Tiles` (the deepest tile's stroke count), not over
     strokes; a layer is one gather, one lerp and one scatter.
     """
-    sizes = tiles.layers
-    for t, fg, alpha in zip(tiles.tile.split(sizes), tiles.fg.split(sizes), tiles.alpha[:, None].split(sizes)):
+    for t, fg, alpha in _layers(tiles.tile, tiles.fg, tiles.alpha, tiles.layers):
         canvas.index_copy_(0, t, torch.lerp(canvas.index_select(0, t), fg, alpha))  # α·s + (1 − α)·h
     return canvas
+
+
+def _layers(tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int]):
+    """Each layer's tiles (L,), foreground (L, 3, n) and alpha (L, 1, n), of pairs sorted in layers."""
+    return zip(tile.split(sizes), fg.split(sizes), alpha[:, None].split(sizes))
+
+
+def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, softness: float, tile: int = 8,
+                     search: Search | None = None) -> Tensor:
+    """Strokes x (N, d), in painting order, each painted in the soft mode over its block's
+    background: ``block`` (N,) indexes ``under`` (B, 3, s, s); returns the blocks (B, 3, s, s),
+    differentiable in x and under.
+
+    What :func:`render` and :func:`composite` give together, sparsely: only the tiles each stroke
+    touches are shaded and blended (:class:`TileBlend`), where those two make a full image of each
+    stroke and blend every pixel of it.
+    """
+    blocks, _, size, _ = under.shape
+    tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, search=search)
+    per_block = tiles.rows * tiles.cols
+    by_stroke = torch.argsort(tiles.stroke, stable=True)  # rasterize's pairs are in its layers; blending needs stroke order
+    where = block[tiles.stroke[by_stroke]] * per_block + tiles.tile[by_stroke]  # (P,) a tile of the blocks' tiles
+    order, layers = in_layers(where)
+    pairs = by_stroke[order]
+    canvas = to_tiles(under, tile).reshape(blocks * per_block, 3, tile * tile)
+    out = TileBlend.apply(tiles.fg[pairs], tiles.alpha[pairs], canvas, where[order], layers)
+    return untile(out.view(blocks, per_block, 3, tile * tile), size, size, tile)
+
+
+class TileBlend(torch.autograd.Function):
+    """:func:`composite_tiles` out of place, with its gradients written out as :class:`Blend`'s, on
+    the pairs' pixels alone: fg (P, 3, n), alpha (P, n) over the tiled canvas (T, 3, n), pair p on
+    tile ``tile[p]``, the pairs sorted in ``layers``."""
+
+    @staticmethod
+    def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor, tile: Tensor, layers: list[int]) -> Tensor:
+        ctx.save_for_backward(fg, alpha, canvas, tile)
+        ctx.layers = layers
+        out = canvas.clone()
+        for t, f, a in _layers(tile, fg, alpha, layers):
+            out.index_copy_(0, t, torch.lerp(out.index_select(0, t), f, a))
+        return out
+
+    @staticmethod
+    def backward(ctx, grad: Tensor) -> tuple[Tensor, Tensor, Tensor, None, None]:
+        """Each layer's tiles as they were before it are blended again, then the layers are run
+        back: ∂L/∂s = g·α, ∂L/∂α = Σ_channels g·(s − h), and g·(1 − α) goes on to the layer below."""
+        fg, alpha, canvas, tile = ctx.saved_tensors
+        h, before = canvas.clone(), []
+        for t, f, a in _layers(tile, fg, alpha, ctx.layers):
+            before.append(h.index_select(0, t))
+            h.index_copy_(0, t, torch.lerp(before[-1], f, a))
+        grad = grad.clone()
+        grad_fg, grad_alpha = torch.empty_like(fg), torch.empty_like(alpha)
+        starts = [sum(ctx.layers[:i]) for i in range(len(ctx.layers))]
+        for (t, f, a), under, start in reversed(list(zip(_layers(tile, fg, alpha, ctx.layers), before, starts))):
+            g = grad.index_select(0, t)
+            grad_fg[start : start + len(t)] = g * a
+            grad_alpha[start : start + len(t)] = (g * (f - under)).sum(1)
+            grad.index_copy_(0, t, g * (1 - a))
+        return grad_fg, grad_alpha, grad, None, None

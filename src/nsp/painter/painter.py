@@ -24,7 +24,7 @@ from torch import Tensor
 
 from nsp.brushes import Brush
 from nsp.colors import parse_color
-from nsp.engine import composite, paint_canvas
+from nsp.engine import paint_canvas
 from nsp.images import long_side, resize
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
 from nsp.painter.faces import Box
@@ -178,9 +178,11 @@ class Painter:
         def optimize(live: Tensor, k: int, steps: int, shown: Tensor | None = None) -> None:
             """``steps`` steps of the first k strokes of the blocks ``live`` (b,); of those, only the
             ``shown`` (b, k) ones are painted (None: all)."""
+            background, aim, weight = under[live], goal[live], weights[live]  # the same at every step
+
             def objective() -> tuple[Tensor, dict[str, Tensor]]:
-                out = self._blend(x[live, :k], under[live], goal[live], weights[live], size, shown)
-                return out, self.loss(out, goal[live])
+                out = self._blend(x[live, :k], background, aim, weight, shown)
+                return out, self.loss(out, aim)
 
             for out, scalars in optimize_strokes(x, optimizer, steps, objective, self.frozen):
                 current[live] = out
@@ -202,7 +204,7 @@ class Painter:
                 callback.on_strokes(self, len(live))
             if not self.schedule.steps_per_stroke:
                 with torch.no_grad():
-                    current[live] = self._blend(x[live, : k + 1], under[live], goal[live], weights[live], size)
+                    current[live] = self._blend(x[live, : k + 1], under[live], goal[live], weights[live])
             optimize(live, k + 1, self.schedule.steps_per_stroke)
         live = exists.any(1).nonzero()[:, 0]
         optimize(live, depth, self.schedule.polish, exists[live].to(x.device))  # the whole level together
@@ -231,19 +233,12 @@ class Painter:
         cap = max(1, math.ceil(self.schedule.crowd * strokes / level.blocks))
         return dataclasses.replace(level, counts=share(strokes, error, cap))
 
-    def _blend(self, x: Tensor, under: Tensor, goal: Tensor, weights: Tensor, size: int,
-               shown: Tensor | None = None) -> Tensor:
+    def _blend(self, x: Tensor, under: Tensor, goal: Tensor, weights: Tensor, shown: Tensor | None = None) -> Tensor:
         """Composite the strokes x (B, k, d) of each block on its background: (B, 3, s, s); padding
         shows the target. ``shown`` (B, k) bool: the strokes painted (None: all)."""
-        blocks, k, d = x.shape
         if shown is None:
-            fg, alpha = self.renderer(x.reshape(-1, d), size)
-            fg, alpha = fg.view(blocks, k, 3, size, size), alpha.view(blocks, k, 1, size, size)
-        else:  # only the painted strokes are rendered; the other slots stay transparent
-            painted_fg, painted_alpha = self.renderer(x[shown], size)
-            fg = painted_fg.new_zeros(blocks, k, 3, size, size).index_put((shown,), painted_fg)
-            alpha = painted_alpha.new_zeros(blocks, k, 1, size, size).index_put((shown,), painted_alpha)
-        out = composite(fg, alpha, under)
+            shown = torch.ones(x.shape[:2], dtype=torch.bool, device=x.device)
+        out = self.renderer.composite(x[shown], shown.nonzero()[:, 0], under)
         return weights * out + (1 - weights) * goal
 
 

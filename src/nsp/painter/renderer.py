@@ -13,7 +13,8 @@ import torch
 from torch import Tensor, nn
 
 from nsp.brushes import Brush
-from nsp.engine import render
+from nsp.engine import composite, render
+from nsp.engine.raster import composite_blocks
 from nsp.engine.fused import fused_search, search_pays
 from nsp.errors import BadInput
 from nsp.renderers.checkpoint import load_renderer
@@ -43,6 +44,11 @@ class AnalyticRenderer:
     def __call__(self, x: Tensor, size: int) -> tuple[Tensor, Tensor]:
         return render(self.brush, x, size, softness=self.softness, search=self.search)
 
+    def composite(self, x: Tensor, block: Tensor, under: Tensor) -> Tensor:
+        """Strokes x (N, d), in order, each painted over its ``block`` (N,) of ``under`` (B, 3, s, s):
+        (B, 3, s, s), only the tiles each touches shaded and blended."""
+        return composite_blocks(self.brush, x, block, under, softness=self.softness, search=self.search)
+
 
 class NeuralRenderer:
     """A trained network (paper §3.2) whose S×S output every block is resampled to."""
@@ -56,6 +62,16 @@ class NeuralRenderer:
 
     def __call__(self, x: Tensor, size: int) -> tuple[Tensor, Tensor]:
         return self.network(x)
+
+    def composite(self, x: Tensor, block: Tensor, under: Tensor) -> Tensor:
+        """Strokes x (N, d), in order, each painted over its ``block`` (N,) of ``under`` (B, 3, s, s):
+        (B, 3, s, s); a block's strokes are stacked in order, its empty places transparent."""
+        blocks, _, size, _ = under.shape
+        fg, alpha = self(x, size)
+        index = torch.arange(len(x), device=x.device) - torch.searchsorted(block, block)  # a stroke's place in its block
+        depth = int(index.max()) + 1 if len(x) else 0
+        stacked = fg.new_zeros(blocks, depth, 3, size, size).index_put((block, index), fg)
+        return composite(stacked, alpha.new_zeros(blocks, depth, 1, size, size).index_put((block, index), alpha), under)
 
 
 def load_neural(path: str | Path, brush: Brush, device: torch.device | str = "cpu") -> NeuralRenderer:
