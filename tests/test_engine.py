@@ -381,3 +381,24 @@ def test_blocks_composited_from_tiles_are_the_dense_composite_with_its_gradients
     for want, got in zip(*grads):
         torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-4)
     assert grads[0][1].abs().sum() > 0 and torch.equal(grads[1][0][1], under[1])  # an empty block is its background
+
+
+def test_soft_gradients_are_the_same_every_time_on_several_threads():
+    """A stroke's gradient sums those of its (stroke, tile) pairs in one order, so a painting of
+    thousands of strokes is the same twice (a gather's gradient with repeated indices, x[b], sums
+    them in whatever order its threads take)."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        brush = BRUSHES["tape"]
+        x = brush.sample(3000, torch.Generator().manual_seed(8)).requires_grad_(True)
+        weights = torch.rand(3000, 4, 96, 96, generator=torch.Generator().manual_seed(9))
+        grads = []
+        for _ in range(6):
+            x.grad = None
+            fg, alpha = render(brush, x, 96, softness=0.5)
+            ((fg * weights[:, :3]).sum() + (alpha * weights[:, 3:]).sum()).backward()
+            grads.append(x.grad.clone())
+        assert all(torch.equal(grads[0], grad) for grad in grads[1:])
+    finally:
+        torch.set_num_threads(threads)

@@ -151,6 +151,7 @@ def rasterize(
         order, layers = in_layers(t)  # b, in stroke order, stays so in each tile
         b, t = b[order], t[order]
 
+    # x.index_select, not x[b]: its gradient sums a stroke's pairs in one order (x[b]'s, with 2 threads, in any).
     # An eager pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be
     # recycled by the allocator instead of page-faulted in afresh by every op; a compiled kernel
     # keeps none, so it shades every pair at once (no copy to join the passes).
@@ -161,7 +162,7 @@ def rasterize(
     else:
         key = t  # an int64 a pair, unread
     passes = [shade(shade_tiles, brush, (xs, ts, ks), (dx, dy), height=height, width=width, tile=tile, softness=softness)
-              for xs, ts, ks in zip(x[b].split(step), t.split(step), key.split(step))]
+              for xs, ts, ks in zip(x.index_select(0, b).split(step), t.split(step), key.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
 
@@ -337,7 +338,7 @@ def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, s
     order, layers = in_layers(where)
     pairs = by_stroke[order]
     canvas = to_tiles(under, tile).reshape(blocks * per_block, 3, tile * tile)
-    out = TileBlend.apply(tiles.fg[pairs], tiles.alpha[pairs], canvas, where[order], layers)
+    out = TileBlend.apply(tiles.fg.index_select(0, pairs), tiles.alpha.index_select(0, pairs), canvas, where[order], layers)
     return untile(out.view(blocks, per_block, 3, tile * tile), size, size, tile)
 
 
