@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -100,18 +101,20 @@ def _indexed(image: Tensor, palette: Image.Image) -> Image.Image:
 
 def write_svg(
     path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
-    images: list | None = None,
+    images: list | None = None, workers: int = 1,
 ) -> None:
     """Each stroke as the brush's SVG elements, in painting order, on a ``height``×``width`` canvas;
     a brush whose paint has no vector form (oil's bristles) as each stroke's paint, an image:
-    ``images``, the strokes' :func:`~nsp.engine.canvas.box_images` where a render already made them."""
+    ``images``, the strokes' :func:`~nsp.engine.canvas.box_images` where a render already made them,
+    encoded on ``workers`` threads (PNG compression lets go of the interpreter)."""
     if brush.svg_painted:
         if images is None:
             images = []
             with torch.no_grad():
                 paint_canvas(brush, strokes.detach().cpu(), height, width, background, images=images)
-        elements = [("", image_element(left, top, image.numpy())) for left, top, image in images
-                    if image.numel()]  # a stroke off the canvas has none
+        drawn = [image for image in images if image[2].numel()]  # a stroke off the canvas has none
+        with ThreadPoolExecutor(workers) as pool:
+            elements = [("", element) for element in pool.map(lambda image: image_element(*image[:2], image[2].numpy()), drawn)]
     else:
         elements = list(brush.svg_elements(strokes.detach().cpu().double().numpy(), height, width))
     defs, body = [d for d, _ in elements], [e for _, e in elements]

@@ -48,7 +48,8 @@ def write_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int
             def write_painting_svg() -> None:
                 if images is not None:
                     final.result()  # its render makes them
-                write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background, images)
+                write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background, images,
+                          workers)  # final.png's render done, its images are encoded on every core
 
             svg = pool.submit(write_painting_svg)
             scores = similarity(final.result(), photo)  # while the GIF and the SVG are written
