@@ -1,6 +1,6 @@
 """The demo's command and which of its parts use the machine's cores: ``python -m nsp.paint`` (astronaut,
 500 oil strokes) at ``threads=1`` and at its default (every core), in turn, each phase's seconds, on
-the idle machine and beside as many CPU-bound processes (``while True: pass``) as it has cores.
+the idle machine and beside as many CPU-bound processes (a ``while`` loop until this script ends) as it has cores.
 
 A phase is what the command's last line reports (painting; writing final.png, painting.svg,
 animation.gif), the rest (start-up: Python, the imports, Hydra, the checks) the wall time less
@@ -51,8 +51,8 @@ def main() -> None:
             "|---|---|---:|---:|---:|---:|---:|"]
     with tempfile.TemporaryDirectory() as tmp:
         for load in ("idle", f"beside {os.cpu_count()} busy processes"):
-            busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
-                    for _ in range(os.cpu_count() if load != "idle" else 0)]
+            busy = [subprocess.Popen([sys.executable, "-c", f"import os\nwhile os.getppid() == {os.getpid()}: pass"])
+                    for _ in range(os.cpu_count() if load != "idle" else 0)]  # busy while this runs, killed or not
             try:
                 best = measure(args.repeats, Path(tmp))
             finally:

@@ -402,3 +402,23 @@ def test_soft_gradients_are_the_same_every_time_on_several_threads():
         assert all(torch.equal(grads[0], grad) for grad in grads[1:])
     finally:
         torch.set_num_threads(threads)
+
+
+@pytest.mark.parametrize("name", ["oilpaint", "markerpen"])
+def test_paint_gains_are_the_error_each_stroke_alone_takes_away(name):
+    """paint_gains (the painter's choice among candidate strokes, tiles only) is Σ w·|canvas − goal|
+    less the same after the stroke alone is painted, each over its own block, as render computes it."""
+    from nsp.engine.raster import paint_gains
+
+    brush, size, generator = BRUSHES[name], 40, torch.Generator().manual_seed(12)
+    x = brush.sample(10, generator)
+    block = torch.tensor([0, 0, 0, 1, 1, 1, 1, 2, 2, 2])
+    canvas, goal = torch.rand(3, 3, size, size, generator=generator), torch.rand(3, 3, size, size, generator=generator)
+    weights = torch.rand(3, 1, size, size, generator=generator)
+    with torch.no_grad():
+        fg, alpha = render(brush, x, size, softness=0.5)
+        painted = torch.lerp(canvas[block], fg, alpha)
+        want = (((canvas[block] - goal[block]).abs() - (painted - goal[block]).abs()) * weights[block]).sum((1, 2, 3))
+        got = paint_gains(brush, x, block, canvas, goal, weights, softness=0.5)
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-3)
+    assert want.abs().max() > 1 and len(set(want.argsort().tolist())) == 10

@@ -302,7 +302,7 @@ def test_new_strokes_are_tried_at_separate_regions_of_large_error_and_the_best_o
     tried = place_strokes(p.brush, torch.ones_like(target), target, torch.ones(1, 1, 32, 32), (0.1, 0.3),
                           torch.Generator().manual_seed(0), 2, (0.5, 1.0, 2.0))
     assert tried.shape == (1, 6, p.brush.d)
-    chosen = p._place(torch.ones_like(target), target, torch.ones(1, 1, 32, 32), Forms.of(target), 32)
+    chosen = p._place(torch.ones_like(target), target, torch.ones(1, 1, 32, 32), Forms.of(target))
     assert 20 / 31 <= chosen[0, 1] <= 27 / 31  # on the darker patch: it lowers the error most
 
 

@@ -342,6 +342,23 @@ def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, s
     return untile(out.view(blocks, per_block, 3, tile * tile), size, size, tile)
 
 
+def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor, *,
+                softness: float, tile: int = 8, search: Search | None = None) -> Tensor:
+    """How much each stroke x (N, d), painted alone in the soft mode over its block's ``canvas``,
+    lowers the block's error Σ weights·|canvas − goal|: (N,). ``block`` (N,) indexes canvas and
+    goal (B, 3, s, s) and weights (B, 1, s, s). Only the tiles a stroke touches are scored, where
+    :func:`render` would make a full image of each."""
+    blocks, _, size, _ = canvas.shape
+    tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, search=search)
+    per_block = tiles.rows * tiles.cols
+    where = block[tiles.stroke] * per_block + tiles.tile  # (P,) a tile of the blocks' tiles
+    under, aim, weight = (to_tiles(image, tile).reshape(blocks * per_block, -1, tile * tile).index_select(0, where)
+                          for image in (canvas, goal, weights))
+    painted = torch.lerp(under, tiles.fg, tiles.alpha[:, None])
+    gain = (((under - aim).abs() - (painted - aim).abs()) * weight).sum((1, 2))
+    return gain.new_zeros(len(x)).index_add_(0, tiles.stroke, gain)
+
+
 class TileBlend(torch.autograd.Function):
     """:func:`composite_tiles` out of place, with its gradients written out as :class:`Blend`'s, on
     the pairs' pixels alone: fg (P, 3, n), alpha (P, n) over the tiled canvas (T, 3, n), pair p on

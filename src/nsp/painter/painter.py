@@ -198,7 +198,7 @@ class Painter:
         for k in range(depth):
             live = exists[:, k].nonzero()[:, 0]  # (b,) the blocks that still take strokes
             with torch.no_grad():
-                x[live, k] = self._place(current[live], goal[live], weights[live], forms[live], size)
+                x[live, k] = self._place(current[live], goal[live], weights[live], forms[live])
             painted[:, k] = exists[:, k]
             for callback in self.callbacks:
                 callback.on_strokes(self, len(live))
@@ -210,7 +210,7 @@ class Painter:
         optimize(live, depth, self.schedule.polish, exists[live].to(x.device))  # the whole level together
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
 
-    def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, forms: Forms, size: int) -> Tensor:
+    def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, forms: Forms) -> Tensor:
         """A new stroke for each block (B, 3, s, s each; weights (B, 1, s, s); the goal's ``forms``):
         (B, d), the candidate that, rendered once on the canvas, leaves the least error."""
         s = self.schedule
@@ -219,11 +219,9 @@ class Painter:
         tried = place_strokes(self.brush, canvas, goal, weights, s.init_size, self.generator, s.candidates, LENGTHS,
                               forms)  # (B, C, d)
         blocks, count, d = tried.shape
-        fg, alpha = self.renderer(tried.reshape(-1, d), size)
-        fg, alpha = fg.view(blocks, count, 3, size, size), alpha.view(blocks, count, 1, size, size)
-        out = alpha * fg + (1 - alpha) * canvas[:, None]
-        error = ((out - goal[:, None]).abs() * weights[:, None]).sum((2, 3, 4))  # (B, C)
-        return tried[torch.arange(blocks, device=tried.device), error.argmin(1)]
+        block = torch.arange(blocks, device=tried.device).repeat_interleave(count)
+        gains = self.renderer.gains(tried.reshape(-1, d), block, canvas, goal, weights).view(blocks, count)
+        return tried[torch.arange(blocks, device=tried.device), gains.argmax(1)]
 
     def _by_error(self, level: Level, under: Tensor, goal: Tensor, weights: Tensor) -> Level:
         """The level with its strokes shared by the mean |canvas − target| left in each block

@@ -14,7 +14,7 @@ from torch import Tensor, nn
 
 from nsp.brushes import Brush
 from nsp.engine import composite, render
-from nsp.engine.raster import composite_blocks
+from nsp.engine.raster import composite_blocks, paint_gains
 from nsp.engine.fused import fused_search, search_pays
 from nsp.errors import BadInput
 from nsp.renderers.checkpoint import load_renderer
@@ -49,6 +49,11 @@ class AnalyticRenderer:
         (B, 3, s, s), only the tiles each touches shaded and blended."""
         return composite_blocks(self.brush, x, block, under, softness=self.softness, search=self.search)
 
+    def gains(self, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
+        """How much each stroke x (N, d), painted alone over its ``block`` (N,) of ``canvas`` (B, 3, s, s),
+        lowers Σ weights·|canvas − goal| there (weights (B, 1, s, s)): (N,), from the tiles each touches."""
+        return paint_gains(self.brush, x, block, canvas, goal, weights, softness=self.softness, search=self.search)
+
 
 class NeuralRenderer:
     """A trained network (paper §3.2) whose S×S output every block is resampled to."""
@@ -72,6 +77,14 @@ class NeuralRenderer:
         depth = int(index.max()) + 1 if len(x) else 0
         stacked = fg.new_zeros(blocks, depth, 3, size, size).index_put((block, index), fg)
         return composite(stacked, alpha.new_zeros(blocks, depth, 1, size, size).index_put((block, index), alpha), under)
+
+    def gains(self, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
+        """How much each stroke x (N, d), painted alone over its ``block`` (N,) of ``canvas`` (B, 3, s, s),
+        lowers Σ weights·|canvas − goal| there (weights (B, 1, s, s)): (N,)."""
+        fg, alpha = self(x, canvas.shape[-1])
+        under, aim = canvas.index_select(0, block), goal.index_select(0, block)
+        painted = torch.lerp(under, fg, alpha)
+        return (((under - aim).abs() - (painted - aim).abs()) * weights.index_select(0, block)).sum((1, 2, 3))
 
 
 def load_neural(path: str | Path, brush: Brush, device: torch.device | str = "cpu") -> NeuralRenderer:
