@@ -30,7 +30,7 @@ demo: setup
 test: setup
 	$(BIN)/python -m pytest -n 2
 
-bench: setup  # quality.py (--base) and the reference rows (--reference) need another checkout: docs/benchmarks.md
+bench: setup  # quality.py and seeds.py (--base) and the reference rows (--reference) need another checkout: docs/benchmarks.md
 	$(BIN)/python benchmarks/demo.py
 	$(BIN)/python benchmarks/engine.py
 	$(BIN)/python benchmarks/render.py
