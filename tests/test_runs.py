@@ -189,6 +189,27 @@ def test_a_signal_stops_training_between_steps_so_the_resume_is_exact_also_at_an
         assert train(compose_train(run, *tiny, f"ckpt_path={last}"))["val/psnr"] == straight["val/psnr"]
 
 
+def test_lightnings_own_sigterm_at_an_epoch_end_resumes_exactly(tmp_path):
+    """Lightning's SIGTERM handler (beside nsp's) stops a run once an epoch is counted done, before the
+    next begins: the checkpoint says so, and the resume trains that next epoch, as a run never stopped."""
+    tiny = [*TINY_TRAIN, "model.channel_mult=0.125", "data.batch_size=8", "data.epoch_size=32", "data.val_size=16",
+            "data.test_size=16", "trainer.max_steps=10"]
+    straight = train(compose_train(tmp_path / "straight", *tiny))
+
+    class Sigterm(L.Callback):  # heard during the first epoch's last step: Lightning raises once the epoch is done
+        def on_train_epoch_end(self, trainer, *args):
+            if trainer.current_epoch == 0:
+                trainer._signal_connector.received_sigterm = True
+
+    run = tmp_path / "stopped"
+    with pytest.raises(KeyboardInterrupt):
+        train(compose_train(run, *tiny), callbacks=[Sigterm()])
+    last = run / "checkpoints" / "last.ckpt"
+    assert torch.load(last, weights_only=True)["global_step"] == 4
+    resumed = train(compose_train(run, *tiny, f"ckpt_path={last}"))
+    assert resumed["steps"] == straight["steps"] == 10 and resumed["val/psnr"] == straight["val/psnr"]
+
+
 def test_a_checkpoint_that_cannot_be_resumed_is_one_line(tmp_path):
     train(compose_train(tmp_path, *TINY_TRAIN, "trainer.max_steps=2"))
     good = tmp_path / "checkpoints" / "last.ckpt"

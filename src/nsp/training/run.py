@@ -47,6 +47,12 @@ class SaveOnInterrupt(Callback):
 
     def on_exception(self, trainer: L.Trainer, pl_module: L.LightningModule, exception: BaseException) -> None:
         if isinstance(exception, (KeyboardInterrupt, SIGTERMException)):
+            epochs, loop = trainer.fit_loop.epoch_progress.current, trainer.fit_loop.epoch_loop
+            if epochs.ready == epochs.completed:  # stopped between epochs (Lightning's SIGTERM check at an epoch's end)
+                # The next epoch has not begun: its batch counts are zero, as its start would make them.
+                # Left at the last epoch's, a resume would take the next epoch for done and skip it.
+                for progress in (loop.batch_progress, loop.scheduler_progress, loop.automatic_optimization.optim_progress):
+                    progress.reset_on_run()
             trainer.save_checkpoint(self.path)
 
 
