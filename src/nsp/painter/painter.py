@@ -55,8 +55,9 @@ class Painter:
 
     Args:
         brush: the brush.
-        renderer: ``renderer(x (B, d), size) -> fg (B, 3, size, size), alpha (B, 1, size, size)``
-            with ``renderer.resolution(side) -> size`` (see :mod:`nsp.painter.renderer`).
+        renderer: ``renderer.resolution(side) -> size``, ``renderer.composite(x, block, under)``
+            (strokes painted in order over their blocks) and ``renderer.gains(x, block, canvas, goal,
+            weights)`` (the error each stroke alone takes away): see :mod:`nsp.painter.renderer`.
         loss: ``loss(canvas, target) -> {"total": scalar, ...}`` on (B, 3, h, w) blocks.
         optimizer: builds the optimizer of a list of parameters (e.g. a ``_partial_`` RMSprop).
         schedule: the levels and how each stroke is added and optimized (:class:`ScheduleConfig`,

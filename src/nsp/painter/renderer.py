@@ -1,5 +1,8 @@
 """The painter's differentiable renderers behind one interface:
-``renderer(x (B, d), size) -> (foreground (B, 3, size, size), alpha (B, 1, size, size))``.
+``renderer(x (B, d), size) -> (foreground (B, 3, size, size), alpha (B, 1, size, size))``, each
+stroke alone; ``renderer.composite(x, block, under)``, strokes painted in order over their blocks;
+``renderer.gains(x, block, canvas, goal, weights)``, the error each stroke alone takes from its
+block; ``renderer.resolution(side)``, the pixels a block is painted at.
 
 ``analytic`` is the vector engine's soft mode: any resolution, nothing to train. ``neural`` is a
 network trained by ``python -m nsp.train``, the paper's choice: one fixed output size S.
