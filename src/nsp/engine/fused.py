@@ -49,7 +49,12 @@ def package(stage, brush: Brush, consts: dict, device: torch.device) -> Path:
     code it is traced from, stage, brush variant (its parameters, :attr:`~nsp.brushes.Brush.variant`), constants
     (canvas, tiling, edge) and device."""
     fixed = "-".join(f"{key}{consts[key]}" for key in sorted(consts))
-    return CACHE / torch.__version__ / _code() / f"{stage.__name__}-{brush.name}{brush.d}-{brush.variant}-{fixed}-{device.type}.pt2"
+    return CACHE / torch.__version__ / _code() / f"{_kernel_of(stage, brush)}-{fixed}-{device.type}.pt2"
+
+
+def _kernel_of(stage, brush: Brush) -> str:
+    """What a :func:`package` name of ``stage`` of ``brush`` begins with, whatever its constants."""
+    return f"{stage.__name__}-{brush.name}{brush.d}-{brush.variant}"
 
 
 @functools.cache
@@ -156,5 +161,5 @@ def search_pays(brush: Brush, strokes: int) -> bool:
     that search for no nearest point never."""
     if brush.name not in SEARCH_SAVED_MS:
         return False
-    cached = any((CACHE / torch.__version__ / _code()).glob(f"{nearest_points.__name__}-{brush.name}{brush.d}-{brush.variant}-*"))
+    cached = any((CACHE / torch.__version__ / _code()).glob(f"{_kernel_of(nearest_points, brush)}-*"))
     return strokes * SEARCH_SAVED_MS[brush.name] * 1e-3 > (0.0 if cached else SEARCH_COMPILE_SECONDS)
