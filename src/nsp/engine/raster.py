@@ -310,14 +310,35 @@ def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
     The loop runs over the layers of :class:`Tiles` (the deepest tile's stroke count), not over
     strokes; a layer is one gather, one lerp and one scatter.
     """
-    for t, fg, alpha in _layers(tiles.tile, tiles.fg, tiles.alpha, tiles.layers):
-        canvas.index_copy_(0, t, torch.lerp(canvas.index_select(0, t), fg, alpha))  # α·s + (1 − α)·h
+    return _blend_layers(canvas, tiles.tile, tiles.fg, tiles.alpha, tiles.layers)
+
+
+def _blend_layers(canvas: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int],
+                  before: list | None = None) -> Tensor:
+    """Blend pairs sorted in layers of ``sizes`` (fg (P, 3, n), alpha (P, n), on tiles ``tile`` (P,))
+    onto the tiled ``canvas`` (T, 3, n) in place, a layer at a time; returns it. ``before``, if given,
+    gets each layer's tiles as they were under it."""
+    for t, f, a in _layers(tile, fg, alpha, sizes):
+        under = canvas.index_select(0, t)
+        if before is not None:
+            before.append(under)
+        canvas.index_copy_(0, t, torch.lerp(under, f, a))  # α·s + (1 − α)·h
     return canvas
 
 
 def _layers(tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int]):
     """Each layer's tiles (L,), foreground (L, 3, n) and alpha (L, 1, n), of pairs sorted in layers."""
     return zip(tile.split(sizes), fg.split(sizes), alpha[:, None].split(sizes))
+
+
+def _block_tiles(brush: Brush, x: Tensor, block: Tensor, blocks: int, size: int, softness: float, tile: int,
+                 search: Search | None) -> tuple[Tiles, Tensor, int]:
+    """Strokes x (N, d) shaded in the soft mode on the tiles of their blocks (``block`` (N,) of
+    ``blocks`` blocks of ``size`` px): their :class:`Tiles`, each pair's tile among all the blocks'
+    (P,), and the tiles a block."""
+    tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, search=search)
+    per_block = tiles.rows * tiles.cols
+    return tiles, block[tiles.stroke] * per_block + tiles.tile, per_block
 
 
 def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, softness: float, tile: int = 8,
@@ -331,10 +352,9 @@ def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, s
     stroke and blend every pixel of it.
     """
     blocks, _, size, _ = under.shape
-    tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, search=search)
-    per_block = tiles.rows * tiles.cols
+    tiles, where, per_block = _block_tiles(brush, x, block, blocks, size, softness, tile, search)
     by_stroke = torch.argsort(tiles.stroke, stable=True)  # rasterize's pairs are in its layers; blending needs stroke order
-    where = block[tiles.stroke[by_stroke]] * per_block + tiles.tile[by_stroke]  # (P,) a tile of the blocks' tiles
+    where = where[by_stroke]
     order, layers = in_layers(where)
     pairs = by_stroke[order]
     canvas = to_tiles(under, tile).reshape(blocks * per_block, 3, tile * tile)
@@ -349,9 +369,7 @@ def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Te
     goal (B, 3, s, s) and weights (B, 1, s, s). Only the tiles a stroke touches are scored, where
     :func:`render` would make a full image of each."""
     blocks, _, size, _ = canvas.shape
-    tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, search=search)
-    per_block = tiles.rows * tiles.cols
-    where = block[tiles.stroke] * per_block + tiles.tile  # (P,) a tile of the blocks' tiles
+    tiles, where, per_block = _block_tiles(brush, x, block, blocks, size, softness, tile, search)
     under, aim, weight = (to_tiles(image, tile).reshape(blocks * per_block, -1, tile * tile).index_select(0, where)
                           for image in (canvas, goal, weights))
     painted = torch.lerp(under, tiles.fg, tiles.alpha[:, None])
@@ -368,26 +386,19 @@ class TileBlend(torch.autograd.Function):
     def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor, tile: Tensor, layers: list[int]) -> Tensor:
         ctx.save_for_backward(fg, alpha, canvas, tile)
         ctx.layers = layers
-        out = canvas.clone()
-        for t, f, a in _layers(tile, fg, alpha, layers):
-            out.index_copy_(0, t, torch.lerp(out.index_select(0, t), f, a))
-        return out
+        return _blend_layers(canvas.clone(), tile, fg, alpha, layers)
 
     @staticmethod
     def backward(ctx, grad: Tensor) -> tuple[Tensor, Tensor, Tensor, None, None]:
         """Each layer's tiles as they were before it are blended again, then the layers are run
         back: ∂L/∂s = g·α, ∂L/∂α = Σ_channels g·(s − h), and g·(1 − α) goes on to the layer below."""
         fg, alpha, canvas, tile = ctx.saved_tensors
-        h, before = canvas.clone(), []
-        for t, f, a in _layers(tile, fg, alpha, ctx.layers):
-            before.append(h.index_select(0, t))
-            h.index_copy_(0, t, torch.lerp(before[-1], f, a))
-        grad = grad.clone()
-        grad_fg, grad_alpha = torch.empty_like(fg), torch.empty_like(alpha)
-        starts = [sum(ctx.layers[:i]) for i in range(len(ctx.layers))]
-        for (t, f, a), under, start in reversed(list(zip(_layers(tile, fg, alpha, ctx.layers), before, starts))):
+        before = []
+        _blend_layers(canvas.clone(), tile, fg, alpha, ctx.layers, before)
+        grad, grad_fg, grad_alpha = grad.clone(), [], []
+        for (t, f, a), under in reversed(list(zip(_layers(tile, fg, alpha, ctx.layers), before))):
             g = grad.index_select(0, t)
-            grad_fg[start : start + len(t)] = g * a
-            grad_alpha[start : start + len(t)] = (g * (f - under)).sum(1)
+            grad_fg.append(g * a)
+            grad_alpha.append((g * (f - under)).sum(1))
             grad.index_copy_(0, t, g * (1 - a))
-        return grad_fg, grad_alpha, grad, None, None
+        return torch.cat([fg[:0], *grad_fg[::-1]]), torch.cat([alpha[:0], *grad_alpha[::-1]]), grad, None, None  # none: no pair
