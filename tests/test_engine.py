@@ -1,4 +1,5 @@
 """The vector engine: batching, resolution independence, range, determinism, soft-mode gradients."""
+import dataclasses
 import functools
 import os
 import subprocess
@@ -109,38 +110,43 @@ def test_compiled_engine_matches_eager(name, generator):
     assert ((fused - eager).abs() > 1e-4).float().mean() < 1e-4
 
 
-@pytest.mark.parametrize("name", ["watercolor", "markerpen"])
-def test_soft_render_with_the_compiled_search_matches_eager_with_its_gradients(name, generator):
-    from nsp.engine.fused import fused_search
+@pytest.mark.parametrize("name", NAMES)
+def test_compiled_soft_renders_of_any_size_match_eager_with_their_gradients(name, generator):
+    from nsp.engine import fused
 
     brush = BRUSHES[name]
     x = moderate(brush, 40, generator)
-    outputs, grads = [], []
-    for search in (None, fused_search(brush)):
-        strokes = x.clone().requires_grad_()
-        fg, alpha = render(brush, strokes, 48, softness=0.25, search=search)
-        ((fg * torch.linspace(0, 1, 48)).sum() + alpha.sum()).backward()  # a loss that weighs where the colour falls
-        outputs.append(torch.cat([fg, alpha], 1).detach())
-        grads.append(strokes.grad)
-    assert (outputs[0] - outputs[1]).abs().max() < 1e-3  # the compiled cubic rounds differently
-    assert torch.allclose(grads[0], grads[1], rtol=1e-2, atol=1e-2 * float(grads[0].abs().max()))
-    assert grads[0].abs().sum() > 0
+    for size in (48, 37):  # one kernel serves both: the canvas's size is one of its inputs
+        outputs, grads = [], []
+        for compile in (False, True):
+            strokes = x.clone().requires_grad_()
+            fg, alpha = render(brush, strokes, size, softness=brush.softness, compile=compile)  # the painter's kernels
+            ((fg * torch.linspace(0, 1, size)).sum() + alpha.sum()).backward()  # a loss that weighs where the colour falls
+            outputs.append(torch.cat([fg, alpha], 1).detach())
+            grads.append(strokes.grad)
+        assert (outputs[0] - outputs[1]).abs().max() < 1e-3  # a compiled cubic rounds differently
+        assert torch.allclose(grads[0], grads[1], rtol=1e-2, atol=1e-2 * float(grads[0].abs().max()))
+        assert grads[0].abs().sum() > 0
+    assert all(fused.package(stage, brush.plain(), dict(softness=brush.softness, tile=8), x.device).exists()
+               for stage in (fused.soft_tiles, fused.soft_tiles_grad))
 
 
-def test_the_compiled_search_is_chosen_only_where_it_pays(monkeypatch, tmp_path):
+def test_the_compiled_soft_shading_is_chosen_only_where_it_pays(monkeypatch, tmp_path):
     from nsp.engine import fused
-    from nsp.engine.kernels import nearest_points
 
     brush = BRUSHES["watercolor"]
     monkeypatch.setattr(fused, "CACHE", tmp_path)  # a machine that never compiled
-    assert not fused.search_pays(brush, 5000)  # seconds of eager search: not worth a first compile
-    assert fused.search_pays(brush, 100_000)
-    kernel = fused.package(nearest_points, brush, dict(samples=12, pixels=64), torch.device("cpu"))
-    kernel.parent.mkdir(parents=True)
-    kernel.touch()
-    assert fused.search_pays(brush, 500)  # on disk: loading it pays
-    assert not fused.search_pays(BRUSHES["markerpen"], 500)  # another brush's kernel
-    assert not any(fused.search_pays(BRUSHES[name], 10**9) for name in ("oilpaint", "tape"))  # they search for nothing
+    assert not fused.soft_pays(brush, 0.25, 5000)  # seconds saved: not worth a first compile
+    assert fused.soft_pays(brush, 0.25, 1_000_000)
+    for stage in (fused.soft_tiles, fused.soft_tiles_grad):
+        kernel = fused.package(stage, brush, dict(softness=0.25, tile=8), torch.device("cpu"))
+        kernel.parent.mkdir(parents=True, exist_ok=True)
+        kernel.touch()
+        assert fused.soft_pays(brush, 0.25, 500) == (stage is fused.soft_tiles_grad)  # both on disk: loading them pays
+    assert not fused.soft_pays(brush, 0.5, 500)  # another edge's kernels
+    assert not fused.soft_pays(BRUSHES["markerpen"], 0.25, 500)  # another brush's
+    textured = dataclasses.replace(BRUSHES["oilpaint"], texture_path=str(tmp_path / "t.png"))
+    assert not fused.soft_pays(textured, 0.5, 10**9)  # its texture is sampled at the canvas's size: no kernel of every size
 
 
 def test_empty_batch_and_far_away_strokes_render_empty():

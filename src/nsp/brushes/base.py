@@ -14,7 +14,6 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from nsp.brushes.geometry import Search
 
 # What each parameter means geometrically; lets generic code (blocks, import, export) move strokes.
 KINDS = ("x", "y", "size", "angle", "ctrl_x", "ctrl_y", "color", "alpha")
@@ -24,15 +23,14 @@ KINDS = ("x", "y", "size", "angle", "ctrl_x", "ctrl_y", "color", "alpha")
 class Pixels:
     """Pixel centres in canvas pixel units, one row per stroke: px, py of shape (P, N); ``key``
     (P, 1) int64, each row's stroke's key (its index and the painting's seed, for brushes whose
-    paint varies from stroke to stroke; None: 0); ``search``: how a Bézier brush finds each pixel's
-    nearest point of the curve (:data:`nsp.brushes.geometry.Search`; None: eagerly)."""
+    paint varies from stroke to stroke; None: 0). ``height`` and ``width`` are the canvas's: ints, or
+    0-d tensors in a compiled kernel that serves every size (:func:`nsp.engine.kernels.soft_tiles`)."""
 
     px: Tensor
     py: Tensor
-    height: int
-    width: int
+    height: int | Tensor
+    width: int | Tensor
     key: Tensor | None = None
-    search: Search | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -2,14 +2,10 @@
 from __future__ import annotations
 
 import math
-from typing import Callable
-
 import torch
 from torch import Tensor
 
 _EPS = 1e-8
-# nearest_search's signature: how a Bézier brush finds, without gradient, each pixel's nearest t
-Search = Callable[[Tensor, Tensor, Tensor, Tensor, Tensor, "Tensor | None", int], tuple[Tensor, Tensor, Tensor, Tensor]]
 
 
 def antialiased(sd: Tensor) -> Tensor:
@@ -150,7 +146,6 @@ def _newton_step(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Te
 
 def bezier_nearest(
     p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None = None, samples: int = 12,
-    search: Search | None = None,
 ) -> Tensor:
     """t ∈ [0, 1] minimizing φ(t) = |B(t) − p| − taper·t for each pixel: (P, N).
 
@@ -160,15 +155,13 @@ def bezier_nearest(
     ``samples`` evenly spaced t (12 leave no holes in tests/test_brushes.py's brute-force check).
     Two safeguarded Newton steps on φ refine the winner; the last runs with autograd, so t carries
     the implicit-function gradient dt/dθ = −(∂φ'/∂θ) / φ''.
-    p0, p1, p2: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None; ``search``: how the
-    search runs (None: :func:`nearest_search`, eagerly).
+    p0, p1, p2: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None.
     """
-    return _nearest(p0, p1, p2, px, py, taper, samples, search)[0]
+    return _nearest(p0, p1, p2, px, py, taper, samples)[0]
 
 
 def swept_discs(
     p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor, samples: int = 12,
-    search: Search | None = None,
 ) -> tuple[Tensor, Tensor, Tensor]:
     """Discs of a linearly growing radius (``taper`` = r2 − r0, (P,) pixels) swept along B, drawn in
     order of t: per pixel, the t of the disc reaching furthest towards it (as :func:`bezier_nearest`),
@@ -178,9 +171,9 @@ def swept_discs(
     later pass's discs are drawn on top, so where they cover the pixel their colour shows; elsewhere
     the two t agree. Strokes with one distance minimum at every pixel have no later pass, and most
     strokes are those, so the rest alone are computed. Both t carry gradients (safeguarded Newton
-    steps on φ, as :func:`bezier_nearest`, whose ``search`` this takes).
+    steps on φ, as :func:`bezier_nearest`).
     """
-    t, (t_last, t_first, between) = _nearest(p0, p1, p2, px, py, taper, samples, search)
+    t, (t_last, t_first, between) = _nearest(p0, p1, p2, px, py, taper, samples)
     rows = (t_last != t_first).any(1).nonzero()[:, 0]
     p0, a, b = p0[rows], (p1 - p0)[rows], (p0 - 2 * p1 + p2)[rows]
     px, py = px.expand_as(t)[rows], py.expand_as(t)[rows]
@@ -211,7 +204,7 @@ def nearest_search(
 ) -> tuple[Tensor, Tensor, Tensor, Tensor]:
     """The search of :func:`bezier_nearest`, without gradient, for B(t) = P0 + 2t·a + t²·b: t (P, N)
     after one safeguarded Newton step, and :func:`_distance_minima`'s three (P, N). Elementwise
-    over pixels: what :func:`nsp.engine.fused.fused_search` compiles.
+    over pixels.
     p0, a, b: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None."""
     with torch.no_grad():
         t1, t2, between = _distance_minima(p0, a, b, px, py)
@@ -226,11 +219,10 @@ def nearest_search(
 
 
 def _nearest(
-    p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None, samples: int, search: Search | None
+    p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None, samples: int
 ) -> tuple[Tensor, tuple[Tensor, Tensor, Tensor]]:
-    """:func:`bezier_nearest`'s t (P, N), and :func:`_distance_minima` (no gradient), the search
-    made by ``search`` (None: :func:`nearest_search`)."""
+    """:func:`bezier_nearest`'s t (P, N), and :func:`_distance_minima` (no gradient)."""
     a, b = p1 - p0, p0 - 2 * p1 + p2
-    t, *minima = (search or nearest_search)(p0.detach(), a.detach(), b.detach(), px, py,
-                                            None if taper is None else taper.detach(), samples)
+    t, *minima = nearest_search(p0.detach(), a.detach(), b.detach(), px, py, None if taper is None else taper.detach(),
+                                samples)
     return _newton_step(t, p0, a, b, px, py, taper), tuple(minima)

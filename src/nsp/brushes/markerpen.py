@@ -29,7 +29,7 @@ class MarkerPen(Brush):
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         pts = bezier.control_points(x, pix.height, pix.width)
         d = x[:, 6:7] * pix.width / 4  # half thickness in pixels
-        t = bezier_nearest(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, search=pix.search)
+        t = bezier_nearest(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py)
         bx, by = bezier.point(pts, t)
         qx, qy = pix.px - bx, pix.py - by
         round_sd = torch.sqrt(qx * qx + qy * qy + 1e-8) - d

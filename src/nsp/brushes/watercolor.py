@@ -25,8 +25,7 @@ class Watercolor(Brush):
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         pts = bezier.control_points(x, pix.height, pix.width)
         r0, r2 = x[:, 6:7] * pix.width / 4, x[:, 7:8] * pix.width / 4  # radii in pixels
-        t, rows, later = swept_discs(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, (r2 - r0)[:, 0],
-                                      search=pix.search)
+        t, rows, later = swept_discs(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, (r2 - r0)[:, 0])
         cov = coverage(self._disc_distance(pts, t, r0, r2, pix))
         c0, c2 = x[:, 8:11, None], x[:, 11:14, None]
         color = c0 + (c2 - c0) * t[:, None]

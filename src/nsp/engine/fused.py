@@ -13,6 +13,7 @@ import hashlib
 import logging
 import os
 import tempfile
+import time
 from pathlib import Path
 
 import torch
@@ -21,8 +22,7 @@ from torch import Tensor
 from nsp import brushes
 from nsp.brushes.base import Brush
 from nsp.engine import kernels
-from nsp.brushes.geometry import Search
-from nsp.engine.kernels import nearest_points, shade_tiles
+from nsp.engine.kernels import shade_tiles, soft_tiles, soft_tiles_grad
 from nsp.files import remove_leftovers
 
 log = logging.getLogger(__name__)
@@ -36,10 +36,10 @@ CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" /
 EAGER_NS = {"watercolor": 150.0, "markerpen": 95.0, "tape": 80.0, "oilpaint": 135.0}
 COMPILED_SHARE = {"watercolor": 0.15, "markerpen": 0.2, "tape": 0.5, "oilpaint": 0.57}
 COMPILE_SECONDS = 120.0  # compiling a brush's culling and shading kernels the first time: 20–60 s here, ×2 for a busy machine
-# What the painter's compiled nearest-point search saves, ms a stroke painted (benchmarks/quality.py:
-# astronaut, 2000 and 5000 strokes, 2 threads), and its first compile (15 s there), ×2 for busier machines.
-SEARCH_SAVED_MS = {"watercolor": 1.1, "markerpen": 0.6}
-SEARCH_COMPILE_SECONDS = 30.0
+# What the painter's compiled soft shading saves, ms a stroke painted (the painting's own time, astronaut,
+# 500 oil and 5000 watercolor strokes, 2 threads), and its first compile here, ×2 for busier machines.
+SOFT_SAVED_MS = {"oilpaint": 2.0, "watercolor": 1.5, "markerpen": 1.0, "tape": 1.0}
+SOFT_COMPILE_SECONDS = {"oilpaint": 42.0, "watercolor": 120.0, "markerpen": 70.0, "tape": 34.0}
 MOST_PAIRS = 1 << 24  # the largest batch of (stroke, tile) pairs a kernel takes
 HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-px tiles
 
@@ -77,15 +77,15 @@ def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float
     return eager * (1 - COMPILED_SHARE.get(brush.name, 1.0)) > (0.0 if cached else COMPILE_SECONDS)
 
 
-class _Stage(torch.nn.Module):
-    """``stage(brush, *tensors, **consts)`` as a module ``torch.export`` traces."""
+class _Traced(torch.nn.Module):
+    """A stage's aten graph as a module ``torch.export`` takes."""
 
-    def __init__(self, stage, brush: Brush, consts: dict):
+    def __init__(self, graph: torch.fx.GraphModule):
         super().__init__()
-        self.stage, self.brush, self.consts = stage, brush, consts
+        self.graph = graph
 
     def forward(self, *tensors: Tensor):
-        return self.stage(self.brush, *tensors, **self.consts)
+        return self.graph(*tensors)
 
 
 def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, ...], consts: dict,
@@ -96,13 +96,16 @@ def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple
     # On the CPU, torch's C++ builder finding a CUDA toolkit without a GPU is no news to a painter.
     logging.getLogger("torch.utils.cpp_extension").setLevel(logging.ERROR)
     from torch._inductor import aoti_compile_and_package  # imported only to compile: ~1.5 s
+    from torch.fx.experimental.proxy_tensor import make_fx
 
     path = package(stage, brush, consts, device)
     paired = tuple(p[:1].expand(HINT_PAIRS, *p.shape[1:]).contiguous() for p in paired)
     pairs = torch.export.Dim("pairs", min=2, max=MOST_PAIRS)
     with torch.no_grad():
         stage(brush, *paired, *fixed, **consts)  # eagerly first: state a brush builds lazily (a texture) is then a constant
-        program = torch.export.export(_Stage(stage, brush, consts), (*paired, *fixed),  # forward's *tensors
+        # Traced below autograd first, so a stage that differentiates (soft_tiles_grad) is one graph of aten ops.
+        graph = make_fx(functools.partial(stage, brush, **consts), tracing_mode="symbolic")(*paired, *fixed)
+        program = torch.export.export(_Traced(graph), (*paired, *fixed),  # forward's *tensors
                                       dynamic_shapes=(tuple({0: pairs} for _ in paired) + (None,) * len(fixed),))
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path.parent, COMPILING)  # of compiles killed part-way
@@ -144,22 +147,28 @@ def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, 
     return out[0] if len(out) == 1 else tuple(out)
 
 
-def fused_search(brush: Brush) -> Search:
-    """:func:`~nsp.brushes.geometry.nearest_search` of ``brush`` by its compiled kernel
-    (:func:`~nsp.engine.kernels.nearest_points`, compiled first if this machine has none): for the
-    painter's soft renders, whose shading is differentiated, so eager, all but this search."""
-    def search(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper: Tensor | None, samples: int):
-        px, py = px.expand(len(p0), -1), py.expand(len(p0), -1)
-        taper = p0.new_zeros(len(p0)) if taper is None else taper
-        return fused(nearest_points, brush, (p0, a, b, px, py, taper), (), samples=samples, pixels=px.shape[1])
-    return search
-
-
-def search_pays(brush: Brush, strokes: int) -> bool:
+def soft_pays(brush: Brush, softness: float, strokes: int) -> bool:
     """Whether painting ``strokes`` strokes of ``brush`` is expected to finish sooner with the soft
-    renders' nearest-point search compiled (:func:`fused_search`; a first compile included). Brushes
-    that search for no nearest point never."""
-    if brush.name not in SEARCH_SAVED_MS:
+    renders shaded by their compiled kernels (:class:`~nsp.engine.raster.SoftShade`, of any block
+    size; a first compile of both included); never where the brush's paint has a texture of its own."""
+    if brush.texture_path is not None:
         return False
-    cached = any((CACHE / torch.__version__ / _code()).glob(f"{_kernel_of(nearest_points, brush)}-*"))
-    return strokes * SEARCH_SAVED_MS[brush.name] * 1e-3 > (0.0 if cached else SEARCH_COMPILE_SECONDS)
+    plain, consts = brush.plain(), {"softness": softness, "tile": 8}
+    cached = all(package(stage, plain, consts, torch.device("cpu")).exists() for stage in (soft_tiles, soft_tiles_grad))
+    return strokes * SOFT_SAVED_MS[brush.name] * 1e-3 > (0.0 if cached else SOFT_COMPILE_SECONDS[brush.name])
+
+
+def compile_soft(name: str) -> str:
+    """Compile the soft kernels the painter uses for the brush ``name`` (its own softness) by one
+    soft render and its gradient, on one thread; what happened, in a line (``python -m nsp.engine``)."""
+    from nsp.engine.raster import render  # the engine imports this module
+
+    torch.set_num_threads(1)
+    brush, start = brushes.BRUSHES[name], time.perf_counter()
+    x = brush.sample(16, torch.Generator().manual_seed(0)).requires_grad_()
+    try:
+        fg, alpha = render(brush, x, 32, softness=brush.softness, compile=True)
+        (fg.sum() + alpha.sum()).backward()
+    except Exception as err:  # no C++ compiler, a full disk: painting still works, eagerly
+        return f"{name}: not compiled ({type(err).__name__}: {(str(err) or '?').splitlines()[0]}); it paints eagerly"
+    return f"{name}: {time.perf_counter() - start:.0f} s"

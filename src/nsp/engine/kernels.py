@@ -10,7 +10,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.geometry import Search, antialiased, nearest_search, soft
+from nsp.brushes.geometry import antialiased, soft
 
 
 def tile_offsets(tile: int, like: Tensor) -> tuple[Tensor, Tensor]:
@@ -32,21 +32,32 @@ def near_tiles(brush: Brush, x: Tensor, t: Tensor, *, height: int, width: int, t
 
 def shade_tiles(
     brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, *, height: int, width: int, tile: int,
-    softness: float | None, search: Search | None = None,
+    softness: float | None,
 ) -> tuple[Tensor, Tensor]:
     """Foreground (P, 3, n) and alpha (P, n) of strokes x (P, d) keyed ``key`` (P,) int64 (see
     :class:`~nsp.brushes.base.Pixels`) on tiles t (P,) (as in :func:`near_tiles`), whose pixel k
     lies (dx[k], dy[k]) from the tile's corner (n = tile², :func:`tile_offsets`); ``softness``:
-    None for :func:`antialiased` edges, else :func:`soft`; ``search`` as :class:`~nsp.brushes.base.Pixels`'."""
-    cols = math.ceil(width / tile)
+    None for :func:`antialiased` edges, else :func:`soft`."""
+    cols = -(-width // tile)  # ⌈width / tile⌉, of an int or a tensor
     px = ((t % cols) * tile).to(x.dtype)[:, None] + dx
     py = (torch.div(t, cols, rounding_mode="floor") * tile).to(x.dtype)[:, None] + dy
     coverage = antialiased if softness is None else functools.partial(soft, softness=softness)
-    return brush.paint(x, Pixels(px, py, height, width, key[:, None], search), coverage)
+    return brush.paint(x, Pixels(px, py, height, width, key[:, None]), coverage)
 
 
-def nearest_points(brush: Brush, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper: Tensor, *,
-                   samples: int, pixels: int) -> tuple[Tensor, Tensor, Tensor, Tensor]:
-    """:func:`~nsp.brushes.geometry.nearest_search` for a Bézier brush's curves B(t) = P0 + 2t·a + t²·b
-    (p0, a, b (P, 2) pixels; ``taper`` (P,), zeros for none) at ``pixels`` pixels each (px, py (P, pixels))."""
-    return nearest_search(p0, a, b, px, py, taper, samples)
+def soft_tiles(brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, canvas: Tensor, *, tile: int,
+               softness: float) -> tuple[Tensor, Tensor]:
+    """:func:`shade_tiles`' soft mode on a canvas whose (height, width) is the tensor ``canvas`` (2,),
+    not a constant: one compiled kernel serves every size of block (a brush whose paint does not
+    vary with the canvas's size, :meth:`~nsp.brushes.Brush.varies`)."""
+    return shade_tiles(brush, x, t, key, dx, dy, height=canvas[0], width=canvas[1], tile=tile, softness=softness)
+
+
+def soft_tiles_grad(brush: Brush, x: Tensor, t: Tensor, key: Tensor, grad_fg: Tensor, grad_alpha: Tensor, dx: Tensor,
+                    dy: Tensor, canvas: Tensor, *, tile: int, softness: float) -> Tensor:
+    """The gradient (P, d) of :func:`soft_tiles`' outputs at x (P, d) along ``grad_fg`` (P, 3, n) and
+    ``grad_alpha`` (P, n): the pairs' shading run again, then back, in one kernel once compiled."""
+    with torch.enable_grad():
+        x = x.detach().requires_grad_()
+        fg, alpha = soft_tiles(brush, x, t, key, dx, dy, canvas, tile=tile, softness=softness)
+        return torch.autograd.grad((fg, alpha), x, (grad_fg, grad_alpha))[0]

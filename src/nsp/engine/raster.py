@@ -16,9 +16,8 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush
 from nsp.brushes.bristles import stroke_keys
-from nsp.brushes.geometry import Search
 from nsp.engine.fused import fused
-from nsp.engine.kernels import near_tiles, shade_tiles, tile_offsets
+from nsp.engine.kernels import near_tiles, shade_tiles, soft_tiles, soft_tiles_grad, tile_offsets
 
 PASS_PIXELS = 1 << 18  # pixels shaded per pass of the inner loop
 
@@ -120,21 +119,26 @@ def rasterize(
     tile: int = 8,
     compile: bool = False,
     first: int = 0,
-    search: Search | None = None,
 ) -> Tiles:
     """Evaluate strokes ``x`` (B, d), numbers ``first``, …, ``first`` + B − 1 of their painting,
     on the tiles of a ``height``×``width`` canvas they touch.
 
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
-    before ``brush.paint`` shades their pixels. ``compile`` shades them by the brush's compiled
-    kernel (:func:`nsp.engine.fused.fused`): several times faster, once this machine has compiled
-    it (:func:`nsp.engine.fused.pays` tells when that is worth it). ``search``: how the eager
-    shading's Bézier brushes find their nearest points (:class:`~nsp.brushes.base.Pixels`; the
-    compiled shading has its own).
+    before ``brush.paint`` shades their pixels. ``compile`` culls and shades them by the brush's
+    compiled kernels (:func:`nsp.engine.fused.fused`): several times faster, once this machine has
+    compiled them (:func:`nsp.engine.fused.pays` tells when that is worth it). A soft render culls
+    eagerly and shades by kernels of any canvas size, differentiable (:class:`SoftShade`), where the
+    brush's paint does not change with the size.
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
-    run = fused if compile else (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
-    shade = fused if compile else (lambda *args, **consts: run(*args, search=search, **consts))
+    sizeless = compile and softness is not None and brush.texture_path is None and not brush.varies(width)
+    eager = (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
+    run = fused if compile and not sizeless else eager
+    shade = fused if compile else eager
+    if sizeless:
+        canvas = torch.tensor([height, width], dtype=x.dtype, device=x.device)
+        shade = (lambda stage, brush, paired, fixed, **consts:
+                 SoftShade.apply(*paired, *fixed, canvas, brush.plain(), consts["tile"], consts["softness"]))
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
@@ -165,6 +169,27 @@ def rasterize(
               for xs, ts, ks in zip(x.index_select(0, b).split(step), t.split(step), key.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
+
+
+class SoftShade(torch.autograd.Function):
+    """:func:`~nsp.engine.kernels.soft_tiles` by its compiled kernel, and its gradient by that of
+    :func:`~nsp.engine.kernels.soft_tiles_grad`, which shades the pairs again and goes back through
+    them in one loop: eager autograd makes a pass over memory for each of the shading's ops, twice."""
+
+    @staticmethod
+    def forward(ctx, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, canvas: Tensor, brush: Brush,
+                tile: int, softness: float) -> tuple[Tensor, Tensor]:
+        ctx.save_for_backward(x, t, key, dx, dy, canvas)
+        ctx.brush, ctx.consts = brush, {"tile": tile, "softness": softness}
+        return fused(soft_tiles, brush, (x, t, key), (dx, dy, canvas), **ctx.consts)
+
+    @staticmethod
+    def backward(ctx, grad_fg: Tensor | None, grad_alpha: Tensor | None):
+        x, t, key, dx, dy, canvas = ctx.saved_tensors
+        grad_fg = x.new_zeros(len(x), 3, len(dx)) if grad_fg is None else grad_fg
+        grad_alpha = x.new_zeros(len(x), len(dx)) if grad_alpha is None else grad_alpha
+        grad = fused(soft_tiles_grad, ctx.brush, (x, t, key, grad_fg, grad_alpha), (dx, dy, canvas), **ctx.consts)
+        return (grad,) + (None,) * 8
 
 
 def pixel_lines(stroke: Tensor, tile: Tensor, channels: int, side: int, rows: int, cols: int) -> Tensor:
@@ -208,7 +233,6 @@ def render(
     tile: int = 8,
     compile: bool = False,
     out: Tensor | None = None,
-    search: Search | None = None,
 ) -> tuple[Tensor, Tensor]:
     """Render strokes on their own, each on an empty canvas.
 
@@ -222,13 +246,12 @@ def render(
         compile: shade the pixels through the compiled path (see :func:`rasterize`).
         out: optional (B, 4, H, W) tensor to render into, reused across calls: a fresh tensor of
             tens of megabytes costs the operating system's page faults on every call.
-        search: how the eager shading's Bézier brushes find their nearest points (see :func:`rasterize`).
 
     Returns:
         foreground (B, 3, H, W) and alpha (B, 1, H, W), both in [0, 1] (views of ``out`` if given).
     """
     width = height if width is None else width
-    tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile, search=search)
+    tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile)
     rows, cols, n = tiles.rows, tiles.cols, len(x)
     if out is None and (tiles.fg.requires_grad or tiles.alpha.requires_grad):  # differentiated: the soft mode
         fg, alpha = (dense(v, tiles.stroke, tiles.tile, n, rows, cols)[..., :height, :width]
@@ -332,17 +355,17 @@ def _layers(tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int]):
 
 
 def _block_tiles(brush: Brush, x: Tensor, block: Tensor, blocks: int, size: int, softness: float, tile: int,
-                 search: Search | None) -> tuple[Tiles, Tensor, int]:
+                 compile: bool) -> tuple[Tiles, Tensor, int]:
     """Strokes x (N, d) shaded in the soft mode on the tiles of their blocks (``block`` (N,) of
     ``blocks`` blocks of ``size`` px): their :class:`Tiles`, each pair's tile among all the blocks'
     (P,), and the tiles a block."""
-    tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, search=search)
+    tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, compile=compile)
     per_block = tiles.rows * tiles.cols
     return tiles, block[tiles.stroke] * per_block + tiles.tile, per_block
 
 
 def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, softness: float, tile: int = 8,
-                     search: Search | None = None) -> Tensor:
+                     compile: bool = False) -> Tensor:
     """Strokes x (N, d), in painting order, each painted in the soft mode over its block's
     background: ``block`` (N,) indexes ``under`` (B, 3, s, s); returns the blocks (B, 3, s, s),
     differentiable in x and under.
@@ -352,7 +375,7 @@ def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, s
     stroke and blend every pixel of it.
     """
     blocks, _, size, _ = under.shape
-    tiles, where, per_block = _block_tiles(brush, x, block, blocks, size, softness, tile, search)
+    tiles, where, per_block = _block_tiles(brush, x, block, blocks, size, softness, tile, compile)
     by_stroke = torch.argsort(tiles.stroke, stable=True)  # rasterize's pairs are in its layers; blending needs stroke order
     where = where[by_stroke]
     order, layers = in_layers(where)
@@ -363,13 +386,13 @@ def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, s
 
 
 def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor, *,
-                softness: float, tile: int = 8, search: Search | None = None) -> Tensor:
+                softness: float, tile: int = 8, compile: bool = False) -> Tensor:
     """How much each stroke x (N, d), painted alone in the soft mode over its block's ``canvas``,
     lowers the block's error Σ weights·|canvas − goal|: (N,). ``block`` (N,) indexes canvas and
     goal (B, 3, s, s) and weights (B, 1, s, s). Only the tiles a stroke touches are scored, where
     :func:`render` would make a full image of each."""
     blocks, _, size, _ = canvas.shape
-    tiles, where, per_block = _block_tiles(brush, x, block, blocks, size, softness, tile, search)
+    tiles, where, per_block = _block_tiles(brush, x, block, blocks, size, softness, tile, compile)
     under, aim, weight = (to_tiles(image, tile).reshape(blocks * per_block, -1, tile * tile).index_select(0, where)
                           for image in (canvas, goal, weights))
     painted = torch.lerp(under, tiles.fg, tiles.alpha[:, None])

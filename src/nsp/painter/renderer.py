@@ -18,7 +18,7 @@ from torch import Tensor, nn
 from nsp.brushes import Brush
 from nsp.engine import composite, render
 from nsp.engine.raster import composite_blocks, paint_gains
-from nsp.engine.fused import fused_search, search_pays
+from nsp.engine.fused import soft_pays
 from nsp.errors import BadInput
 from nsp.renderers.checkpoint import load_renderer
 
@@ -31,31 +31,31 @@ class AnalyticRenderer:
         softness: edge width in block pixels; wider edges reach further but blur the optimum.
             None: the brush's own.
         block_size: the largest block side rendered; bigger blocks are optimized downsampled.
-        compile: a Bézier brush's nearest-point search on its compiled kernel
-            (:func:`nsp.engine.fused.fused_search`): the same strokes, to float rounding, faster.
+        compile: the soft shading, forward and back, by its compiled kernels, one for every block
+            size (:class:`nsp.engine.raster.SoftShade`): the same strokes, to float rounding, faster.
     """
 
     def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64, compile: bool = False):
         self.brush, self.block_size = brush, block_size
         self.softness = brush.softness if softness is None else softness
-        self.search = fused_search(brush) if compile else None
+        self.compile = compile
 
     def resolution(self, side: int) -> int:
         """Pixels per side a block of ``side`` canvas pixels is optimized at."""
         return min(side, self.block_size)
 
     def __call__(self, x: Tensor, size: int) -> tuple[Tensor, Tensor]:
-        return render(self.brush, x, size, softness=self.softness, search=self.search)
+        return render(self.brush, x, size, softness=self.softness, compile=self.compile)
 
     def composite(self, x: Tensor, block: Tensor, under: Tensor) -> Tensor:
         """Strokes x (N, d), in order, each painted over its ``block`` (N,) of ``under`` (B, 3, s, s):
         (B, 3, s, s), only the tiles each touches shaded and blended."""
-        return composite_blocks(self.brush, x, block, under, softness=self.softness, search=self.search)
+        return composite_blocks(self.brush, x, block, under, softness=self.softness, compile=self.compile)
 
     def gains(self, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
         """How much each stroke x (N, d), painted alone over its ``block`` (N,) of ``canvas`` (B, 3, s, s),
         lowers Σ weights·|canvas − goal| there (weights (B, 1, s, s)): (N,), from the tiles each touches."""
-        return paint_gains(self.brush, x, block, canvas, goal, weights, softness=self.softness, search=self.search)
+        return paint_gains(self.brush, x, block, canvas, goal, weights, softness=self.softness, compile=self.compile)
 
 
 class NeuralRenderer:
@@ -106,10 +106,12 @@ def build_renderer(cfg: Any, brush: Brush, device: torch.device | str = "cpu",
                    strokes: int = 0) -> AnalyticRenderer | NeuralRenderer:
     """The painter's renderer a config's ``renderer`` node (nsp.painter.schema.RendererConfig) names:
     the analytic one (``compile`` None: compiled where painting ``strokes`` strokes pays,
-    :func:`~nsp.engine.fused.search_pays`), or the network of its checkpoint on ``device``."""
+    :func:`~nsp.engine.fused.soft_pays`), or the network of its checkpoint on ``device``."""
     if cfg.name == "analytic":
-        pays = torch.device(device).type == "cpu" and search_pays(brush, strokes)  # its estimates are the CPU's
-        return AnalyticRenderer(brush, cfg.softness, cfg.block_size, pays if cfg.compile is None else cfg.compile)
+        renderer = AnalyticRenderer(brush, cfg.softness, cfg.block_size, bool(cfg.compile))
+        if cfg.compile is None:  # the estimates are the CPU's
+            renderer.compile = torch.device(device).type == "cpu" and soft_pays(brush, renderer.softness, strokes)
+        return renderer
     if cfg.checkpoint is None:
         raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
     return load_neural(cfg.checkpoint, brush, device)
