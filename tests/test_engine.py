@@ -128,7 +128,7 @@ def test_compiled_soft_renders_of_any_size_match_eager_with_their_gradients(name
         assert torch.allclose(grads[0], grads[1], rtol=1e-2, atol=1e-2 * float(grads[0].abs().max()))
         assert grads[0].abs().sum() > 0
     assert all(fused.package(stage, brush.plain(), dict(softness=brush.softness, tile=8), x.device).exists()
-               for stage in (fused.soft_tiles, fused.soft_tiles_grad))
+               for stage in (fused.shade_any_size, fused.shade_any_size_grad))
 
 
 def test_the_compiled_soft_shading_is_chosen_only_where_it_pays(monkeypatch, tmp_path):
@@ -138,11 +138,11 @@ def test_the_compiled_soft_shading_is_chosen_only_where_it_pays(monkeypatch, tmp
     monkeypatch.setattr(fused, "CACHE", tmp_path)  # a machine that never compiled
     assert not fused.soft_pays(brush, 0.25, 5000)  # seconds saved: not worth a first compile
     assert fused.soft_pays(brush, 0.25, 1_000_000)
-    for stage in (fused.soft_tiles, fused.soft_tiles_grad):
+    for stage in (fused.shade_any_size, fused.shade_any_size_grad):
         kernel = fused.package(stage, brush, dict(softness=0.25, tile=8), torch.device("cpu"))
         kernel.parent.mkdir(parents=True, exist_ok=True)
         kernel.touch()
-        assert fused.soft_pays(brush, 0.25, 500) == (stage is fused.soft_tiles_grad)  # both on disk: loading them pays
+        assert fused.soft_pays(brush, 0.25, 500) == (stage is fused.shade_any_size_grad)  # both on disk: loading them pays
     assert not fused.soft_pays(brush, 0.5, 500)  # another edge's kernels
     assert not fused.soft_pays(BRUSHES["markerpen"], 0.25, 500)  # another brush's
     textured = dataclasses.replace(BRUSHES["oilpaint"], texture_path=str(tmp_path / "t.png"))
@@ -228,7 +228,7 @@ def test_closest_point_on_a_bezier_matches_dense_sampling(generator):
 
 def test_compiled_path_is_chosen_only_where_it_pays(generator, monkeypatch, tmp_path):
     from nsp.engine import fused
-    from nsp.engine.kernels import shade_tiles
+    from nsp.engine.kernels import shade_any_size, shade_tiles
 
     brush = BRUSHES["watercolor"]
     few, many = moderate(brush, 10, generator), moderate(brush, 20000, generator)
@@ -236,14 +236,19 @@ def test_compiled_path_is_chosen_only_where_it_pays(generator, monkeypatch, tmp_
     assert not fused.pays(brush, few, 128, 128)
     assert not fused.pays(brush, many, 128, 128)  # seconds of eager work: not worth a first compile
     assert fused.pays(brush, many, 4096, 4096)  # an hour eager: worth even a first compile
-    kernel = fused.package(shade_tiles, brush, dict(height=128, width=128, tile=8, softness=None), many.device)
+    kernel = fused.package(shade_any_size, brush, dict(tile=8, softness=None), many.device)
     kernel.parent.mkdir(parents=True)
     kernel.touch()
-    assert fused.pays(brush, many, 128, 128)  # the kernel is on disk: loading it pays
+    assert fused.pays(brush, many, 128, 128) and fused.pays(brush, many, 128, 96)  # on disk, for every size: loading it pays
     assert not fused.pays(brush, many, 128, 128, softness=1.0)  # not this kernel
-    assert not fused.pays(brush, many, 128, 96)
     assert not fused.pays(brush, many.requires_grad_(), 4096, 4096)  # gradients stay eager
     assert not fused.pays(BRUSHES["tape"], few, 128, 128)
+    oil = BRUSHES["oilpaint"]  # its bristles are drawn on a canvas this wide: a kernel per size
+    strokes = moderate(oil, 20000, generator)
+    assert not fused.any_size(oil, 1024) and fused.any_size(oil, 64) and fused.any_size(oil.plain(), 1024)
+    sized = fused.package(shade_tiles, oil, dict(height=1024, width=1024, tile=8, softness=None), strokes.device)
+    sized.touch()
+    assert fused.pays(oil, strokes, 1024, 1024) and not fused.pays(oil, strokes, 1024, 768)
 
 
 def test_a_kernel_is_compiled_once_into_the_cache_and_falls_back_where_it_cannot_serve(generator, monkeypatch, tmp_path):
@@ -315,7 +320,7 @@ def test_a_canvas_painted_until_each_frame_shows_exactly_the_strokes_before_it(g
     shown = {end: canvas.image().clone() for end in canvas.paint_until(brush, x, ends, chunk=chunk)}
     assert list(shown) == ends
     for end in ends:
-        assert torch.allclose(shown[end], paint_canvas(brush, x[:end], 24, 40), atol=1e-6)
+        assert torch.allclose(shown[end], paint_canvas(brush, x[:end], 24, 40, compile=False), atol=1e-6)  # both eager
 
 
 def test_paint_canvas_leaves_the_given_canvas_alone(generator):

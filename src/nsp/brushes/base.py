@@ -24,7 +24,7 @@ class Pixels:
     """Pixel centres in canvas pixel units, one row per stroke: px, py of shape (P, N); ``key``
     (P, 1) int64, each row's stroke's key (its index and the painting's seed, for brushes whose
     paint varies from stroke to stroke; None: 0). ``height`` and ``width`` are the canvas's: ints, or
-    0-d tensors in a compiled kernel that serves every size (:func:`nsp.engine.kernels.soft_tiles`)."""
+    0-d tensors in a compiled kernel that serves every size (:func:`nsp.engine.kernels.shade_any_size`)."""
 
     px: Tensor
     py: Tensor

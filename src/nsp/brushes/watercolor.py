@@ -45,21 +45,24 @@ class Watercolor(Brush):
         turn = math.atan2(abs(start[0] * end[1] - start[1] * end[0]), float(start @ end))
         pieces = 1 + math.ceil(turn / (math.pi / 8))
         r0, r2 = p[6] * width / 4, p[7] * width / 4
+        ends = np.linspace(0, 1, pieces + 1)
+        t = np.stack([np.linspace(a, b, max(3, math.ceil(32 / pieces) + 1)) for a, b in zip(ends[:-1], ends[1:])])[..., None]
+        at = (1 - t) ** 2 * pts[0] + 2 * (1 - t) * t * pts[1] + t**2 * pts[2]  # (pieces, m, 2): every piece at once
+        tangent = 2 * (1 - t) * start + 2 * t * end
+        normal = np.stack([-tangent[..., 1], tangent[..., 0]], -1) / (np.linalg.norm(tangent, axis=-1, keepdims=True) + 1e-9)
+        radius = r0 + (r2 - r0) * t
+        outlines = np.concatenate([at + radius * normal, np.flip(at - radius * normal, 1)], 1)  # (pieces, 2m, 2)
+        points = " ".join(["%.2f,%.2f"] * outlines.shape[1])  # one %-format a piece: the SVG of thousands of strokes is this loop
+        colors = [hex_color(p[8:11] + (p[11:14] - p[8:11]) * u) for u in ends]
         defs, body = [], []
-        for k, (a, b) in enumerate(zip(np.linspace(0, 1, pieces + 1)[:-1], np.linspace(0, 1, pieces + 1)[1:])):
-            t = np.linspace(a, b, max(3, math.ceil(32 / pieces) + 1))[:, None]
-            at = (1 - t) ** 2 * pts[0] + 2 * (1 - t) * t * pts[1] + t**2 * pts[2]
-            tangent = 2 * (1 - t) * start + 2 * t * end
-            normal = np.stack([-tangent[:, 1], tangent[:, 0]], 1) / (np.linalg.norm(tangent, axis=1, keepdims=True) + 1e-9)
-            radius = r0 + (r2 - r0) * t
-            outline = " ".join(f"{u:.2f},{v:.2f}" for u, v in np.concatenate([at + radius * normal, np.flip(at - radius * normal, 0)]))
-            (xa, ya), (xb, yb) = at[0], at[-1]
-            colors = [hex_color(p[8:11] + (p[11:14] - p[8:11]) * u) for u in (a, b)]
+        for k in range(pieces):
+            (xa, ya), (xb, yb) = at[k, 0], at[k, -1]
             defs.append(f'<linearGradient id="g{index}_{k}" gradientUnits="userSpaceOnUse" x1="{xa:.3f}" y1="{ya:.3f}" '
-                        f'x2="{xb:.3f}" y2="{yb:.3f}"><stop offset="0" stop-color="{colors[0]}"/>'
-                        f'<stop offset="1" stop-color="{colors[1]}"/></linearGradient>')
-            body.append(f'<g fill="url(#g{index}_{k})"><polygon points="{outline}"/><circle cx="{xa:.3f}" cy="{ya:.3f}" '
-                        f'r="{radius[0, 0]:.3f}"/><circle cx="{xb:.3f}" cy="{yb:.3f}" r="{radius[-1, 0]:.3f}"/></g>')
+                        f'x2="{xb:.3f}" y2="{yb:.3f}"><stop offset="0" stop-color="{colors[k]}"/>'
+                        f'<stop offset="1" stop-color="{colors[k + 1]}"/></linearGradient>')
+            body.append(f'<g fill="url(#g{index}_{k})"><polygon points="{points % tuple(outlines[k].ravel())}"/>'
+                        f'<circle cx="{xa:.3f}" cy="{ya:.3f}" r="{radius[k, 0, 0]:.3f}"/><circle cx="{xb:.3f}" cy="{yb:.3f}" '
+                        f'r="{radius[k, -1, 0]:.3f}"/></g>')
         return "".join(defs), f'<g opacity="{p[14]:.4f}">{"".join(body)}</g>'
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:

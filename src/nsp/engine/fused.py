@@ -22,7 +22,7 @@ from torch import Tensor
 from nsp import brushes
 from nsp.brushes.base import Brush
 from nsp.engine import kernels
-from nsp.engine.kernels import shade_tiles, soft_tiles, soft_tiles_grad
+from nsp.engine.kernels import shade_any_size, shade_any_size_grad, shade_tiles
 from nsp.files import remove_leftovers
 
 log = logging.getLogger(__name__)
@@ -72,8 +72,11 @@ def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float
     if strokes.device.type != "cpu" or (strokes.requires_grad and torch.is_grad_enabled()):
         return False
     eager = float(brush.box_area(strokes, height, width).sum()) * EAGER_NS.get(brush.name, EAGER_NS["watercolor"]) * 1e-9
-    consts = dict(height=height, width=width, tile=tile, softness=softness)
-    cached = package(shade_tiles, brush, consts, strokes.device).exists()
+    if any_size(brush, width):
+        cached = package(shade_any_size, brush.plain(), dict(tile=tile, softness=softness), strokes.device).exists()
+    else:
+        cached = package(shade_tiles, brush, dict(height=height, width=width, tile=tile, softness=softness),
+                         strokes.device).exists()
     return eager * (1 - COMPILED_SHARE.get(brush.name, 1.0)) > (0.0 if cached else COMPILE_SECONDS)
 
 
@@ -96,6 +99,7 @@ def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple
     # On the CPU, torch's C++ builder finding a CUDA toolkit without a GPU is no news to a painter.
     logging.getLogger("torch.utils.cpp_extension").setLevel(logging.ERROR)
     from torch._inductor import aoti_compile_and_package  # imported only to compile: ~1.5 s
+    from torch._inductor import config as inductor
     from torch.fx.experimental.proxy_tensor import make_fx
 
     path = package(stage, brush, consts, device)
@@ -103,14 +107,17 @@ def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple
     pairs = torch.export.Dim("pairs", min=2, max=MOST_PAIRS)
     with torch.no_grad():
         stage(brush, *paired, *fixed, **consts)  # eagerly first: state a brush builds lazily (a texture) is then a constant
-        # Traced below autograd first, so a stage that differentiates (soft_tiles_grad) is one graph of aten ops.
+        # Traced below autograd first, so a stage that differentiates (shade_any_size_grad) is one graph of aten ops.
         graph = make_fx(functools.partial(stage, brush, **consts), tracing_mode="symbolic")(*paired, *fixed)
         program = torch.export.export(_Traced(graph), (*paired, *fixed),  # forward's *tensors
                                       dynamic_shapes=(tuple({0: pairs} for _ in paired) + (None,) * len(fixed),))
         path.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(path.parent, COMPILING)  # of compiles killed part-way
         with tempfile.TemporaryDirectory(dir=path.parent, prefix=f"{COMPILING}{os.getpid()}-") as tmp:
-            aoti_compile_and_package(program, package_path=str(Path(tmp) / path.name))
+            # Parallel loops on as many threads as torch has when the kernel runs (all cores, or a sweep's one),
+            # not as it had when compiled (a test's or a compile job's one thread: serial loops for good).
+            with inductor.patch({"cpp.threads": os.cpu_count() or 1, "cpp.dynamic_threads": True}):
+                aoti_compile_and_package(program, package_path=str(Path(tmp) / path.name))
             os.replace(Path(tmp) / path.name, path)
     return path
 
@@ -147,20 +154,30 @@ def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, 
     return out[0] if len(out) == 1 else tuple(out)
 
 
+def any_size(brush: Brush, width: int) -> bool:
+    """Whether ``brush``'s paint on a canvas ``width`` px wide is the same function of the canvas's
+    size at every size, so that one kernel (:func:`~nsp.engine.kernels.shade_any_size`) serves them
+    all: not an oil brush's bristles where they are drawn, nor a user's texture, sampled to the size."""
+    return brush.texture_path is None and not brush.varies(width)
+
+
 def soft_pays(brush: Brush, softness: float, strokes: int) -> bool:
     """Whether painting ``strokes`` strokes of ``brush`` is expected to finish sooner with the soft
-    renders shaded by their compiled kernels (:class:`~nsp.engine.raster.SoftShade`, of any block
+    renders shaded by their compiled kernels (:class:`~nsp.engine.raster.AnySizeShade`, of any block
     size; a first compile of both included); never where the brush's paint has a texture of its own."""
-    if brush.texture_path is not None:
+    if not any_size(brush, 64):  # a painter's block: oil's bristles are not drawn on it
         return False
     plain, consts = brush.plain(), {"softness": softness, "tile": 8}
-    cached = all(package(stage, plain, consts, torch.device("cpu")).exists() for stage in (soft_tiles, soft_tiles_grad))
+    cached = all(package(stage, plain, consts, torch.device("cpu")).exists() for stage in (shade_any_size, shade_any_size_grad))
     return strokes * SOFT_SAVED_MS[brush.name] * 1e-3 > (0.0 if cached else SOFT_COMPILE_SECONDS[brush.name])
 
 
-def compile_soft(name: str) -> str:
-    """Compile the soft kernels the painter uses for the brush ``name`` (its own softness) by one
-    soft render and its gradient, on one thread; what happened, in a line (``python -m nsp.engine``)."""
+def compile_for_painting(name: str) -> str:
+    """Compile the kernels a painting with the brush ``name`` uses: its soft shading (its own
+    softness) and that shading's gradient, by a soft render and its backward, and the antialiased
+    shading of its plain paint (:meth:`~nsp.brushes.Brush.plain`: the painter's canvases, and the
+    files of brushes with no detail finer than their strokes), all of any canvas size; on one thread.
+    What happened, in a line (``python -m nsp.engine``)."""
     from nsp.engine.raster import render  # the engine imports this module
 
     torch.set_num_threads(1)
@@ -169,6 +186,8 @@ def compile_soft(name: str) -> str:
     try:
         fg, alpha = render(brush, x, 32, softness=brush.softness, compile=True)
         (fg.sum() + alpha.sum()).backward()
+        with torch.no_grad():
+            render(brush.plain(), x.detach(), 32, compile=True)
     except Exception as err:  # no C++ compiler, a full disk: painting still works, eagerly
         return f"{name}: not compiled ({type(err).__name__}: {(str(err) or '?').splitlines()[0]}); it paints eagerly"
     return f"{name}: {time.perf_counter() - start:.0f} s"

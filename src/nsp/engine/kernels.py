@@ -45,19 +45,19 @@ def shade_tiles(
     return brush.paint(x, Pixels(px, py, height, width, key[:, None]), coverage)
 
 
-def soft_tiles(brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, canvas: Tensor, *, tile: int,
-               softness: float) -> tuple[Tensor, Tensor]:
-    """:func:`shade_tiles`' soft mode on a canvas whose (height, width) is the tensor ``canvas`` (2,),
-    not a constant: one compiled kernel serves every size of block (a brush whose paint does not
-    vary with the canvas's size, :meth:`~nsp.brushes.Brush.varies`)."""
+def shade_any_size(brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, canvas: Tensor, *,
+                   tile: int, softness: float | None) -> tuple[Tensor, Tensor]:
+    """:func:`shade_tiles` on a canvas whose (height, width) is the tensor ``canvas`` (2,), not a
+    constant: one compiled kernel serves every canvas size, for a brush whose paint does not
+    change with it (:func:`nsp.engine.fused.any_size`)."""
     return shade_tiles(brush, x, t, key, dx, dy, height=canvas[0], width=canvas[1], tile=tile, softness=softness)
 
 
-def soft_tiles_grad(brush: Brush, x: Tensor, t: Tensor, key: Tensor, grad_fg: Tensor, grad_alpha: Tensor, dx: Tensor,
-                    dy: Tensor, canvas: Tensor, *, tile: int, softness: float) -> Tensor:
-    """The gradient (P, d) of :func:`soft_tiles`' outputs at x (P, d) along ``grad_fg`` (P, 3, n) and
+def shade_any_size_grad(brush: Brush, x: Tensor, t: Tensor, key: Tensor, grad_fg: Tensor, grad_alpha: Tensor,
+                        dx: Tensor, dy: Tensor, canvas: Tensor, *, tile: int, softness: float) -> Tensor:
+    """The gradient (P, d) of :func:`shade_any_size`' outputs at x (P, d) along ``grad_fg`` (P, 3, n) and
     ``grad_alpha`` (P, n): the pairs' shading run again, then back, in one kernel once compiled."""
     with torch.enable_grad():
         x = x.detach().requires_grad_()
-        fg, alpha = soft_tiles(brush, x, t, key, dx, dy, canvas, tile=tile, softness=softness)
+        fg, alpha = shade_any_size(brush, x, t, key, dx, dy, canvas, tile=tile, softness=softness)
         return torch.autograd.grad((fg, alpha), x, (grad_fg, grad_alpha))[0]

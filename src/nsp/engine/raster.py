@@ -16,8 +16,8 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush
 from nsp.brushes.bristles import stroke_keys
-from nsp.engine.fused import fused
-from nsp.engine.kernels import near_tiles, shade_tiles, soft_tiles, soft_tiles_grad, tile_offsets
+from nsp.engine.fused import any_size, fused
+from nsp.engine.kernels import near_tiles, shade_tiles, shade_any_size, shade_any_size_grad, tile_offsets
 
 PASS_PIXELS = 1 << 18  # pixels shaded per pass of the inner loop
 
@@ -126,19 +126,19 @@ def rasterize(
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
     before ``brush.paint`` shades their pixels. ``compile`` culls and shades them by the brush's
     compiled kernels (:func:`nsp.engine.fused.fused`): several times faster, once this machine has
-    compiled them (:func:`nsp.engine.fused.pays` tells when that is worth it). A soft render culls
-    eagerly and shades by kernels of any canvas size, differentiable (:class:`SoftShade`), where the
-    brush's paint does not change with the size.
+    compiled them (:func:`nsp.engine.fused.pays` tells when that is worth it). Where the brush's
+    paint does not change with the canvas's size (:func:`nsp.engine.fused.any_size`), it culls
+    eagerly and shades by kernels of any canvas size, differentiable (:class:`AnySizeShade`).
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
-    sizeless = compile and softness is not None and brush.texture_path is None and not brush.varies(width)
+    sizeless = compile and any_size(brush, width)
     eager = (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
     run = fused if compile and not sizeless else eager
     shade = fused if compile else eager
     if sizeless:
         canvas = torch.tensor([height, width], dtype=x.dtype, device=x.device)
         shade = (lambda stage, brush, paired, fixed, **consts:
-                 SoftShade.apply(*paired, *fixed, canvas, brush.plain(), consts["tile"], consts["softness"]))
+                 AnySizeShade.apply(*paired, *fixed, canvas, brush.plain(), consts["tile"], consts["softness"]))
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
@@ -171,9 +171,9 @@ def rasterize(
     return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
 
 
-class SoftShade(torch.autograd.Function):
-    """:func:`~nsp.engine.kernels.soft_tiles` by its compiled kernel, and its gradient by that of
-    :func:`~nsp.engine.kernels.soft_tiles_grad`, which shades the pairs again and goes back through
+class AnySizeShade(torch.autograd.Function):
+    """:func:`~nsp.engine.kernels.shade_any_size` by its compiled kernel, and its gradient by that of
+    :func:`~nsp.engine.kernels.shade_any_size_grad`, which shades the pairs again and goes back through
     them in one loop: eager autograd makes a pass over memory for each of the shading's ops, twice."""
 
     @staticmethod
@@ -181,14 +181,14 @@ class SoftShade(torch.autograd.Function):
                 tile: int, softness: float) -> tuple[Tensor, Tensor]:
         ctx.save_for_backward(x, t, key, dx, dy, canvas)
         ctx.brush, ctx.consts = brush, {"tile": tile, "softness": softness}
-        return fused(soft_tiles, brush, (x, t, key), (dx, dy, canvas), **ctx.consts)
+        return fused(shade_any_size, brush, (x, t, key), (dx, dy, canvas), **ctx.consts)
 
     @staticmethod
     def backward(ctx, grad_fg: Tensor | None, grad_alpha: Tensor | None):
         x, t, key, dx, dy, canvas = ctx.saved_tensors
         grad_fg = x.new_zeros(len(x), 3, len(dx)) if grad_fg is None else grad_fg
         grad_alpha = x.new_zeros(len(x), len(dx)) if grad_alpha is None else grad_alpha
-        grad = fused(soft_tiles_grad, ctx.brush, (x, t, key, grad_fg, grad_alpha), (dx, dy, canvas), **ctx.consts)
+        grad = fused(shade_any_size_grad, ctx.brush, (x, t, key, grad_fg, grad_alpha), (dx, dy, canvas), **ctx.consts)
         return (grad,) + (None,) * 8
 
 

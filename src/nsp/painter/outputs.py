@@ -40,10 +40,7 @@ def write_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int
     torch.set_num_threads(1)  # a file a core: each file's ops are too small to split well
     images = [] if brush.svg_painted else None
     try:
-        with ThreadPoolExecutor(workers) as pool:  # the longest first: final.png, then the GIF and the SVG
-            final = pool.submit(write_strokes_and_png, out, strokes, brush, aspect, background, render_size, images)
-            gif = pool.submit(write_gif, out / "animation.gif", brush, strokes, *long_side(*aspect, animation_size),
-                              background, frames=frames)
+        with ThreadPoolExecutor(workers) as pool:  # the longest first
 
             def write_painting_svg() -> None:
                 if images is not None:
@@ -51,7 +48,12 @@ def write_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int
                 write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background, images,
                           workers)  # final.png's render done, its images are encoded on every core
 
-            svg = pool.submit(write_painting_svg)
+            vector = images is None  # a vector SVG is written a stroke at a time in Python: the longest, first
+            svg = pool.submit(write_painting_svg) if vector else None
+            final = pool.submit(write_strokes_and_png, out, strokes, brush, aspect, background, render_size, images)
+            gif = pool.submit(write_gif, out / "animation.gif", brush, strokes, *long_side(*aspect, animation_size),
+                              background, frames=frames)
+            svg = svg if vector else pool.submit(write_painting_svg)  # after final.png's render, whose images it takes
             scores = similarity(final.result(), photo)  # while the GIF and the SVG are written
             svg.result(), gif.result()
             return scores

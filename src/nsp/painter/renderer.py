@@ -32,7 +32,7 @@ class AnalyticRenderer:
             None: the brush's own.
         block_size: the largest block side rendered; bigger blocks are optimized downsampled.
         compile: the soft shading, forward and back, by its compiled kernels, one for every block
-            size (:class:`nsp.engine.raster.SoftShade`): the same strokes, to float rounding, faster.
+            size (:class:`nsp.engine.raster.AnySizeShade`): the same strokes, to float rounding, faster.
     """
 
     def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64, compile: bool = False):

@@ -25,7 +25,7 @@ class RendererConfig:
     name: RendererName = RendererName.analytic
     softness: Optional[float] = None  # analytic: edge width in block pixels; None: the brush's own (Brush.softness)
     block_size: int = 64  # analytic: blocks are optimized at most this many pixels wide
-    # analytic: the soft shading, forward and back, by its compiled kernels (nsp.engine.raster.SoftShade; the
+    # analytic: the soft shading, forward and back, by its compiled kernels (nsp.engine.raster.AnySizeShade; the
     # first time on a machine 20–60 s a brush, loaded in ms later); None: where it is expected to pay (soft_pays)
     compile: Optional[bool] = None
     checkpoint: Optional[str] = None  # neural: path of the checkpoint (required)
