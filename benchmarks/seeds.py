@@ -57,7 +57,8 @@ def main() -> None:
                f"--strokes {' '.join(map(str, args.strokes))} --seeds {' '.join(map(str, args.seeds))}")
     write_section("PSNR over seeds", "\n".join([
         f"`python -m nsp.paint image={args.photo} brush=… strokes=N seed=S` on its defaults, A (this commit) and "
-        f"B ({args.base_name}) in turn, one fresh process each; metrics.json's PSNR. The mean and standard deviation "
+        f"B ({args.base_name}) in turn, one fresh process each, with this machine's kernel cache (A's kernels as "
+        "`make setup` compiles them); metrics.json's PSNR. The mean and standard deviation "
         "of A − B over the seeds is the comparison; one seed's difference is mostly where rounding led the optimization.",
         "", f"Command: `{command}`  ", f"Machine: {machine()}, nothing else running; {args.date}", "", *rows]))
 

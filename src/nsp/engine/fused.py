@@ -36,9 +36,9 @@ CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "nsp" /
 EAGER_NS = {"watercolor": 150.0, "markerpen": 95.0, "tape": 80.0, "oilpaint": 135.0}
 COMPILED_SHARE = {"watercolor": 0.15, "markerpen": 0.2, "tape": 0.5, "oilpaint": 0.57}
 COMPILE_SECONDS = 120.0  # compiling a brush's culling and shading kernels the first time: 20–60 s here, ×2 for a busy machine
-# What the painter's compiled soft shading saves, ms a stroke painted (the painting's own time, astronaut,
-# 500 oil and 5000 watercolor strokes, 2 threads), and its first compile here, ×2 for busier machines.
-SOFT_SAVED_MS = {"oilpaint": 2.0, "watercolor": 1.5, "markerpen": 1.0, "tape": 1.0}
+# What the compiled kernels save, ms a stroke painted (benchmarks/quality.py: 5000 strokes, the whole command,
+# eager against compiled, 2 threads), and a brush's first compile here, ×2 for busier machines.
+SOFT_SAVED_MS = {"oilpaint": 1.7, "watercolor": 3.4, "markerpen": 1.8, "tape": 1.0}
 SOFT_COMPILE_SECONDS = {"oilpaint": 42.0, "watercolor": 120.0, "markerpen": 70.0, "tape": 34.0}
 MOST_PAIRS = 1 << 24  # the largest batch of (stroke, tile) pairs a kernel takes
 HINT_PAIRS = 4096  # the batch it is tuned for: the engine's shading pass at 8-px tiles
