@@ -5,6 +5,7 @@ from their first run (``make setup`` does this once), a brush a core. A brush wh
 cannot be compiled here is named and skipped: the painter then shades its strokes eagerly."""
 from __future__ import annotations
 
+import argparse
 import multiprocessing
 import os
 import sys
@@ -15,6 +16,8 @@ from nsp.engine import fused
 
 
 def main() -> int:
+    argparse.ArgumentParser(prog="python -m nsp.engine", description="Compile the kernels a painting uses, of every "
+                            "brush, into this machine's kernel cache (make setup does it once).").parse_args()
     print(f"compiling the painter's kernels of {', '.join(BRUSHES)} into {fused.CACHE} "
           "(once a machine, 20–60 s a brush)…", flush=True)
     spawn = multiprocessing.get_context("spawn")

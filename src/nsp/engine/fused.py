@@ -49,12 +49,7 @@ def package(stage, brush: Brush, consts: dict, device: torch.device) -> Path:
     code it is traced from, stage, brush variant (its parameters, :attr:`~nsp.brushes.Brush.variant`), constants
     (canvas, tiling, edge) and device."""
     fixed = "-".join(f"{key}{consts[key]}" for key in sorted(consts))
-    return CACHE / torch.__version__ / _code() / f"{_kernel_of(stage, brush)}-{fixed}-{device.type}.pt2"
-
-
-def _kernel_of(stage, brush: Brush) -> str:
-    """What a :func:`package` name of ``stage`` of ``brush`` begins with, whatever its constants."""
-    return f"{stage.__name__}-{brush.name}{brush.d}-{brush.variant}"
+    return CACHE / torch.__version__ / _code() / f"{stage.__name__}-{brush.name}{brush.d}-{brush.variant}-{fixed}-{device.type}.pt2"
 
 
 @functools.cache
@@ -73,7 +68,7 @@ def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float
         return False
     eager = float(brush.box_area(strokes, height, width).sum()) * EAGER_NS.get(brush.name, EAGER_NS["watercolor"]) * 1e-9
     if any_size(brush, width):
-        cached = package(shade_any_size, brush.plain(), dict(tile=tile, softness=softness), strokes.device).exists()
+        cached = _any_size_cached(brush, softness, tile, (shade_any_size,))
     else:
         cached = package(shade_tiles, brush, dict(height=height, width=width, tile=tile, softness=softness),
                          strokes.device).exists()
@@ -161,14 +156,20 @@ def any_size(brush: Brush, width: int) -> bool:
     return brush.texture_path is None and not brush.varies(width)
 
 
-def soft_pays(brush: Brush, softness: float, strokes: int) -> bool:
-    """Whether painting ``strokes`` strokes of ``brush`` is expected to finish sooner with the soft
-    renders shaded by their compiled kernels (:class:`~nsp.engine.raster.AnySizeShade`, of any block
-    size; a first compile of both included); never where the brush's paint has a texture of its own."""
-    if not any_size(brush, 64):  # a painter's block: oil's bristles are not drawn on it
+def _any_size_cached(brush: Brush, softness: float | None, tile: int, stages) -> bool:
+    """Whether the CPU kernels of every size of these ``stages`` of ``brush``'s plain paint are on disk."""
+    consts = {"softness": softness, "tile": tile}
+    return all(package(stage, brush.plain(), consts, torch.device("cpu")).exists() for stage in stages)
+
+
+def soft_pays(brush: Brush, softness: float, strokes: int, block: int = 64) -> bool:
+    """Whether painting ``strokes`` strokes of ``brush`` on blocks of at most ``block`` px is expected
+    to finish sooner with the soft renders shaded by their compiled kernels
+    (:class:`~nsp.engine.raster.AnySizeShade`, of any block size; a first compile of both included);
+    never where the brush's paint changes with the block's size (oil's bristles drawn, a texture)."""
+    if not any_size(brush, block):
         return False
-    plain, consts = brush.plain(), {"softness": softness, "tile": 8}
-    cached = all(package(stage, plain, consts, torch.device("cpu")).exists() for stage in (shade_any_size, shade_any_size_grad))
+    cached = _any_size_cached(brush, softness, 8, (shade_any_size, shade_any_size_grad))
     return strokes * SOFT_SAVED_MS[brush.name] * 1e-3 > (0.0 if cached else SOFT_COMPILE_SECONDS[brush.name])
 
 

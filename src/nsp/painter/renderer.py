@@ -110,7 +110,7 @@ def build_renderer(cfg: Any, brush: Brush, device: torch.device | str = "cpu",
     if cfg.name == "analytic":
         renderer = AnalyticRenderer(brush, cfg.softness, cfg.block_size, bool(cfg.compile))
         if cfg.compile is None:  # the estimates are the CPU's
-            renderer.compile = torch.device(device).type == "cpu" and soft_pays(brush, renderer.softness, strokes)
+            renderer.compile = torch.device(device).type == "cpu" and soft_pays(brush, renderer.softness, strokes, cfg.block_size)
         return renderer
     if cfg.checkpoint is None:
         raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
