@@ -11,6 +11,7 @@ import torch.nn.functional as F
 
 from nsp.brushes import BRUSHES
 from nsp.brushes.base import Pixels
+from nsp.brushes.texture import EMBEDDED
 from nsp.engine import composite, paint_canvas, render
 from nsp.engine.kernels import antialiased, soft
 
@@ -243,12 +244,18 @@ def test_compiled_path_is_chosen_only_where_it_pays(generator, monkeypatch, tmp_
     assert not fused.pays(brush, many, 128, 128, softness=1.0)  # not this kernel
     assert not fused.pays(brush, many.requires_grad_(), 4096, 4096)  # gradients stay eager
     assert not fused.pays(BRUSHES["tape"], few, 128, 128)
-    oil = BRUSHES["oilpaint"]  # its bristles are drawn on a canvas this wide: a kernel per size
+    oil = BRUSHES["oilpaint"]  # a kernel for every canvas that draws the same bristle scales
     strokes = moderate(oil, 20000, generator)
-    assert not fused.any_size(oil, 1024) and fused.any_size(oil, 64) and fused.any_size(oil.plain(), 1024)
-    sized = fused.package(shade_tiles, oil, dict(height=1024, width=1024, tile=8, softness=None), strokes.device)
+    assert oil.sized(1024) is oil.sized(768) is not oil.sized(2048) and oil.sized(64) is oil.plain()
+    kernel = fused.package(shade_any_size, oil.sized(1024), dict(tile=8, softness=None), strokes.device)
+    kernel.touch()
+    assert fused.pays(oil, strokes, 1024, 1024) and fused.pays(oil, strokes, 1024, 768)
+    assert not fused.pays(oil, strokes[:1000], 2048, 2048) and fused.pays(oil, strokes[:1000], 1024, 1024)
+    textured = dataclasses.replace(oil, texture_path=EMBEDDED + "…", _cache={})  # sampled to each canvas: a kernel per size
+    assert not fused.any_size(textured, 64)
+    sized = fused.package(shade_tiles, textured, dict(height=1024, width=1024, tile=8, softness=None), strokes.device)
     sized.touch()
-    assert fused.pays(oil, strokes, 1024, 1024) and not fused.pays(oil, strokes, 1024, 768)
+    assert fused.pays(textured, strokes, 1024, 1024) and not fused.pays(textured, strokes, 1024, 768)
 
 
 def test_a_kernel_is_compiled_once_into_the_cache_and_falls_back_where_it_cannot_serve(generator, monkeypatch, tmp_path):
@@ -433,3 +440,16 @@ def test_paint_gains_are_the_error_each_stroke_alone_takes_away(name):
         got = paint_gains(brush, x, block, canvas, goal, weights, softness=0.5)
     torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-3)
     assert want.abs().max() > 1 and len(set(want.argsort().tolist())) == 10
+
+
+def test_one_kernel_draws_oils_bristles_on_every_canvas_of_the_same_detail(generator):
+    from nsp.engine import fused
+
+    oil = BRUSHES["oilpaint"]
+    x = moderate(oil, 12, generator)
+    for height, width in ((300, 600), (200, 900)):  # the same bristle scales drawn (python -m nsp.engine compiles it)
+        eager = torch.cat(render(oil, x, height, width), 1)
+        compiled = torch.cat(render(oil, x, height, width, compile=True), 1)
+        assert (compiled - eager).abs().max() < 1e-3 and eager[:, 3].sum() > 1000
+    assert fused.package(fused.shade_any_size, oil.sized(1024), dict(softness=None, tile=8), x.device).exists()
+    assert oil.sized(600).variant != oil.plain().variant

@@ -68,6 +68,13 @@ class Brush:
         what the painter's own canvases need, whose blocks it samples down to its working size."""
         return self
 
+    def sized(self, width: int) -> "Brush | None":
+        """This brush shading every canvas as it shades one ``width`` px wide, whatever its size: what
+        one compiled kernel of any canvas size (:func:`nsp.engine.kernels.shade_any_size`) computes for
+        the canvases of the same detail (oil's bristle scales); None where the paint is sampled to
+        each size (a user's texture)."""
+        return self
+
     def varies(self, width: int) -> bool:
         """Whether a stroke's paint on a canvas ``width`` px wide depends on its key (see :class:`Pixels`)."""
         return False

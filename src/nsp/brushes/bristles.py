@@ -43,6 +43,7 @@ STREAKS = 0.03  # thicker paint is darker by this much per standard deviation of
 SHARP = 0.15  # the least blur of the threshold, in standard deviations of H (antialiasing)
 LIGHT = (-1 / math.sqrt(2), -1 / math.sqrt(2))  # toward the light, on screen (x right, y down)
 RELIEF = (0.15, 0.5, 0.3, 0.08)  # each scale's share of the relief: its ridges lit, clumps' barely
+FAINTEST = 0.01  # a scale drawn with less weight is left to its mean
 LIT = 0.35  # the change of the paint's lightness per unit of slope toward the light
 _MASK = 0xFFFFFFFF
 _CROSS, _LONG = 0x27D4EB2F, 0x165667B1  # a lattice step's change of the hashed integer, across and along
@@ -69,15 +70,20 @@ def ramp(lo: float, hi: float, x: Tensor) -> Tensor:
     return ((x - lo) * (1 / (hi - lo))).clamp(0, 1)
 
 
-def drawn(scale: float) -> bool:
-    """Whether any of the model's detail is drawn on a canvas ``scale`` px wide (else each stroke's
-    paint is the same mean, whatever its key)."""
-    return seen(max(SCALES) * TRACK * scale) > 0
+def detail(scale: float) -> tuple[bool, ...]:
+    """Which of the model's parts are drawn on a canvas ``scale`` px wide: the tracks' ragged starts,
+    then each of :data:`SCALES` (a scale is drawn from a weight of :data:`FAINTEST`); none: each
+    stroke's paint is the model's mean, whatever its key. Every width with the same parts is
+    shaded by the same operations, so one compiled kernel serves them all
+    (:func:`nsp.engine.kernels.shade_any_size`)."""
+    width = torch.tensor(TRACK * scale, dtype=torch.float64, device="cpu")  # a number, not a pixel
+    scales = tuple(bool(seen(cells * width) >= FAINTEST) for cells in SCALES)
+    return (bool(seen(width) > 0) and any(scales), *scales)
 
 
-def seen(pixels: float) -> float:
+def seen(pixels: Tensor) -> Tensor:
     """How much of a pattern whose cells span ``pixels`` px is drawn (1) or replaced by its mean (0)."""
-    t = min(max(pixels - 1.0, 0.0), 1.0)
+    t = (pixels - 1.0).clamp(0, 1)
     return t * t * (3 - 2 * t)
 
 
@@ -113,11 +119,12 @@ def value_noise(cross: Tensor, long: Tensor, seed: Tensor) -> tuple[Tensor, Tens
     return near + (far - near) * wj, 6 * fi * (1 - fi) * ((h10 - h00) * (1 - wj) + (h11 - h01) * wj)
 
 
-def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key: Tensor, scale: float,
-            light: tuple[Tensor, Tensor] | None) -> Surface:
+def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key: Tensor, scale: float | Tensor,
+            light: tuple[Tensor, Tensor] | None, parts: tuple[bool, ...]) -> Surface:
     """The bristle model at pixels ``s`` px from the head (``u`` = s / length, clamped to [0, 1])
     and ``c`` px across the centre line (P, N), of strokes ``length`` px long and 2·``half_h`` px
-    high (P,), keyed ``key`` (P, 1), on a canvas ``scale`` px wide; ``light`` from
+    high (P,), keyed ``key`` (P, 1), on a canvas ``scale`` px wide (a number, or a 0-d tensor in a
+    kernel of any size), its ``parts`` drawn (:func:`detail` of a width); ``light`` from
     :func:`light_across` (None: no impasto)."""
     half_h = half_h.clamp(min=0.5)[:, None]
     side = (c / half_h).abs().clamp(max=1)
@@ -126,29 +133,29 @@ def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key
     squared = side * side
     head = radius * (1 - torch.sqrt((1 - squared).clamp(min=1e-6))) - s  # the head's rounded corners
     tail = s - (length[:, None] - TAPER * half_h * squared)  # the tail's tapered ones
-    width = TRACK * scale  # a track, in pixels
-    if tracks := seen(width):
+    tracks, *scales = parts
+    if not any(scales):  # nothing drawn: the mean of the model
+        return Surface(1 - dry, None, torch.maximum(head, tail))
+    width = torch.as_tensor(TRACK * scale, dtype=s.dtype, device=s.device)  # a track, in pixels
+    if tracks:
         jag, _ = value_noise(c / width, torch.zeros_like(c), key + 0x2F6B2E1D)  # each track starts a little early or late
-        head = head + tracks * (0.2 * length[:, None]).clamp(max=RAGGED * width) * (jag - 0.5)
+        head = head + seen(width) * torch.minimum(0.2 * length[:, None], RAGGED * width) * (jag - 0.5)
     outline = torch.maximum(head, tail)
     height = slope = 0
     unseen = 0.0  # the variance of H left undrawn
-    for k, (cells, grain, relief) in enumerate(zip(SCALES, GRAIN, RELIEF)):
-        cell = cells * width  # pixels
-        weight = seen(cell)
-        unseen += (1 - weight**2) * (grain * NOISE_STD) ** 2
-        if weight < 0.01:
-            continue
-        value, rise = value_noise(c / cell, s / (STRETCH * cell), key + k * 0x61C88647)
-        height = height + weight * grain * (value - 0.5)
-        slope = slope + weight * relief / cells * rise
+    for k, (cells, grain, relief, drawn) in enumerate(zip(SCALES, GRAIN, RELIEF, scales)):
+        weight = seen(cells * width)
+        unseen = unseen + (1 - weight**2) * (grain * NOISE_STD) ** 2
+        if drawn:
+            cell = cells * width  # pixels
+            value, rise = value_noise(c / cell, s / (STRETCH * cell), key + k * 0x61C88647)
+            height = height + weight * grain * (value - 0.5)
+            slope = slope + weight * relief / cells * rise
     spread = math.sqrt(sum((g * NOISE_STD) ** 2 for g in GRAIN))
-    if unseen > spread**2 - 1e-9:  # nothing drawn: the mean of the model
-        return Surface(1 - dry, None, outline)
     # P(H > level) = 1 − D, and the scales left undrawn (taken as Gaussian) blur the threshold: the
     # cover expected over them, so its mean is the same at every size.
     level = spread * math.sqrt(2) * torch.erfinv((2 * dry - 1).clamp(-0.998, 0.998))
-    blur = max(math.sqrt(unseen), SHARP * spread)
+    blur = unseen.sqrt().clamp(min=SHARP * spread)
     cover = 0.5 * (1 + torch.erf((height - level) / (blur * math.sqrt(2))))
     shade = 1 - STREAKS * height / spread
     if light is not None:  # Lambert's law for small slopes: lighter facing the light, darker away; mean 1

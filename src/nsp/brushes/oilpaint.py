@@ -45,21 +45,29 @@ class OilPaint(Brush):
 
     svg_painted: ClassVar[bool] = True  # its paint has no vector form
     impasto: bool = True
-    detail: bool = True  # False: the bristles' mean at any size (see Brush.plain)
+    detail: tuple[bool, ...] | None = None  # the bristle model's parts drawn at every size (bristles.detail); None: the canvas's
     _cache: dict = field(default_factory=dict, repr=False)
 
     def plain(self) -> "OilPaint":
-        if "plain" not in self._cache:
-            self._cache["plain"] = dataclasses.replace(self, detail=False, _cache={})
-        return self._cache["plain"]
+        return self._with(bristles.detail(0))
+
+    def sized(self, width: int) -> "OilPaint | None":
+        return None if self.texture_path else self._with(bristles.detail(width) if self.detail is None else self.detail)
+
+    def _with(self, detail: tuple[bool, ...]) -> "OilPaint":
+        """This brush drawing the bristle model's ``detail`` on a canvas of any size."""
+        if detail not in self._cache:
+            self._cache[detail] = dataclasses.replace(self, detail=detail, _cache={})
+        return self._cache[detail]
 
     def varies(self, width: int) -> bool:
-        return self.detail and self.texture_path is None and bristles.drawn(width)
+        return self.texture_path is None and any(bristles.detail(width) if self.detail is None else self.detail)
 
     @property
     def variant(self) -> str:
         texture = _digest(self.texture_path) if self.texture_path else "own"
-        return texture + ("" if self.impasto else "-flat") + ("" if self.detail else "-plain")
+        detail = "" if self.detail is None else "-detail" + "".join(str(int(part)) for part in self.detail)
+        return texture + ("" if self.impasto else "-flat") + detail
 
     def texture(self, device, dtype, canvas_width: int | None = None) -> Tensor:
         """A user's texture as (1, 1, h, w) on ``device``.
@@ -102,7 +110,8 @@ class OilPaint(Brush):
         edge = box(along, across, half_w, half_h)
         if self.texture_path is None:
             key = pix.key if pix.key is not None else torch.zeros_like(along[:, :1], dtype=torch.int64)
-            paint = bristles.surface(s, across, u, length, half_h, key, pix.width if self.detail else 0.0, light)
+            detail = bristles.detail(pix.width) if self.detail is None else self.detail
+            paint = bristles.surface(s, across, u, length, half_h, key, pix.width, light, detail)
             return coverage(torch.maximum(edge, paint.outline)) * paint.cover, paint, u
         paint = self._textured(u, across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5, pix.width, light)
         return coverage(edge) * paint.cover, paint, u

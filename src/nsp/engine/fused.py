@@ -68,7 +68,7 @@ def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float
         return False
     eager = float(brush.box_area(strokes, height, width).sum()) * EAGER_NS.get(brush.name, EAGER_NS["watercolor"]) * 1e-9
     if any_size(brush, width):
-        cached = _any_size_cached(brush, softness, tile, (shade_any_size,))
+        cached = _any_size_cached(brush.sized(width), softness, tile, (shade_any_size,))
     else:
         cached = package(shade_tiles, brush, dict(height=height, width=width, tile=tile, softness=softness),
                          strokes.device).exists()
@@ -150,45 +150,50 @@ def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, 
 
 
 def any_size(brush: Brush, width: int) -> bool:
-    """Whether ``brush``'s paint on a canvas ``width`` px wide is the same function of the canvas's
-    size at every size, so that one kernel (:func:`~nsp.engine.kernels.shade_any_size`) serves them
-    all: not an oil brush's bristles where they are drawn, nor a user's texture, sampled to the size."""
-    return brush.texture_path is None and not brush.varies(width)
+    """Whether one kernel (:func:`~nsp.engine.kernels.shade_any_size`) shades ``brush``'s paint on a
+    canvas ``width`` px wide: that of its :meth:`~nsp.brushes.Brush.sized` form, which serves every
+    canvas of the same detail; not a user's texture, sampled to the size."""
+    return brush.sized(width) is not None
 
 
 def _any_size_cached(brush: Brush, softness: float | None, tile: int, stages) -> bool:
-    """Whether the CPU kernels of every size of these ``stages`` of ``brush``'s plain paint are on disk."""
+    """Whether the CPU kernels of every size of these ``stages`` of ``brush`` (a
+    :meth:`~nsp.brushes.Brush.sized` form) are on disk."""
     consts = {"softness": softness, "tile": tile}
-    return all(package(stage, brush.plain(), consts, torch.device("cpu")).exists() for stage in stages)
+    return all(package(stage, brush, consts, torch.device("cpu")).exists() for stage in stages)
 
 
 def soft_pays(brush: Brush, softness: float, strokes: int, block: int = 64) -> bool:
     """Whether painting ``strokes`` strokes of ``brush`` on blocks of at most ``block`` px is expected
     to finish sooner with the soft renders shaded by their compiled kernels
     (:class:`~nsp.engine.raster.AnySizeShade`, of any block size; a first compile of both included);
-    never where the brush's paint changes with the block's size (oil's bristles drawn, a texture)."""
+    never where no kernel of any size serves (a user's texture)."""
     if not any_size(brush, block):
         return False
-    cached = _any_size_cached(brush, softness, 8, (shade_any_size, shade_any_size_grad))
+    cached = _any_size_cached(brush.sized(block), softness, 8, (shade_any_size, shade_any_size_grad))
     return strokes * SOFT_SAVED_MS[brush.name] * 1e-3 > (0.0 if cached else SOFT_COMPILE_SECONDS[brush.name])
 
 
-def compile_for_painting(name: str) -> str:
-    """Compile the kernels a painting with the brush ``name`` uses: its soft shading (its own
-    softness) and that shading's gradient, by a soft render and its backward, and the antialiased
-    shading of its plain paint (:meth:`~nsp.brushes.Brush.plain`: the painter's canvases, and the
-    files of brushes with no detail finer than their strokes), all of any canvas size; on one thread.
-    What happened, in a line (``python -m nsp.engine``)."""
+def compile_for_painting(name: str, width: int | None = None) -> str:
+    """Compile the kernels of any canvas size a painting with the brush ``name`` uses, on one thread.
+    Without ``width``: its soft shading (its own softness) and that shading's gradient, by a soft
+    render and its backward, and the antialiased shading of its plain paint
+    (:meth:`~nsp.brushes.Brush.plain`: the painter's canvases, and the files of brushes with no detail
+    finer than their strokes). With ``width``: the antialiased shading of its paint as drawn on
+    canvases ``width`` px wide (:meth:`~nsp.brushes.Brush.sized`: oil's bristle scales), a painting's
+    files of that detail. What happened, in a line (``python -m nsp.engine``)."""
     from nsp.engine.raster import render  # the engine imports this module
 
     torch.set_num_threads(1)
     brush, start = brushes.BRUSHES[name], time.perf_counter()
-    x = brush.sample(16, torch.Generator().manual_seed(0)).requires_grad_()
+    x, what = brush.sample(16, torch.Generator().manual_seed(0)), name if width is None else f"{name} at {width} px"
     try:
-        fg, alpha = render(brush, x, 32, softness=brush.softness, compile=True)
-        (fg.sum() + alpha.sum()).backward()
+        if width is None:
+            strokes = x.clone().requires_grad_()
+            fg, alpha = render(brush, strokes, 32, softness=brush.softness, compile=True)
+            (fg.sum() + alpha.sum()).backward()
         with torch.no_grad():
-            render(brush.plain(), x.detach(), 32, compile=True)
+            render(brush.plain() if width is None else brush.sized(width), x, 32, compile=True)
     except Exception as err:  # no C++ compiler, a full disk: painting still works, eagerly
-        return f"{name}: not compiled ({type(err).__name__}: {(str(err) or '?').splitlines()[0]}); it paints eagerly"
-    return f"{name}: {time.perf_counter() - start:.0f} s"
+        return f"{what}: not compiled ({type(err).__name__}: {(str(err) or '?').splitlines()[0]}); it is drawn eagerly"
+    return f"{what}: {time.perf_counter() - start:.0f} s"

@@ -16,7 +16,7 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush
 from nsp.brushes.bristles import stroke_keys
-from nsp.engine.fused import any_size, fused
+from nsp.engine.fused import fused
 from nsp.engine.kernels import near_tiles, shade_tiles, shade_any_size, shade_any_size_grad, tile_offsets
 
 PASS_PIXELS = 1 << 18  # pixels shaded per pass of the inner loop
@@ -126,19 +126,19 @@ def rasterize(
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
     before ``brush.paint`` shades their pixels. ``compile`` culls and shades them by the brush's
     compiled kernels (:func:`nsp.engine.fused.fused`): several times faster, once this machine has
-    compiled them (:func:`nsp.engine.fused.pays` tells when that is worth it). Where the brush's
-    paint does not change with the canvas's size (:func:`nsp.engine.fused.any_size`), it culls
-    eagerly and shades by kernels of any canvas size, differentiable (:class:`AnySizeShade`).
+    compiled them (:func:`nsp.engine.fused.pays` tells when that is worth it). Where one kernel
+    serves every canvas of this one's detail (:func:`nsp.engine.fused.any_size`: all but a user's
+    texture), it culls eagerly and shades by that kernel, differentiably (:class:`AnySizeShade`).
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
-    sizeless = compile and any_size(brush, width)
+    sized = brush.sized(width) if compile else None
     eager = (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
-    run = fused if compile and not sizeless else eager
+    run = fused if compile and sized is None else eager
     shade = fused if compile else eager
-    if sizeless:
+    if sized is not None:
         canvas = torch.tensor([height, width], dtype=x.dtype, device=x.device)
         shade = (lambda stage, brush, paired, fixed, **consts:
-                 AnySizeShade.apply(*paired, *fixed, canvas, brush.plain(), consts["tile"], consts["softness"]))
+                 AnySizeShade.apply(*paired, *fixed, canvas, sized, consts["tile"], consts["softness"]))
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
