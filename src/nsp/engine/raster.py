@@ -407,17 +407,17 @@ class TileBlend(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor, tile: Tensor, layers: list[int]) -> Tensor:
-        ctx.save_for_backward(fg, alpha, canvas, tile)
+        before = []  # each layer's tiles as they were under it (a pair's pixels: as small as fg)
+        out = _blend_layers(canvas.clone(), tile, fg, alpha, layers, before)
+        ctx.save_for_backward(fg, alpha, tile, *before)
         ctx.layers = layers
-        return _blend_layers(canvas.clone(), tile, fg, alpha, layers)
+        return out
 
     @staticmethod
     def backward(ctx, grad: Tensor) -> tuple[Tensor, Tensor, Tensor, None, None]:
-        """Each layer's tiles as they were before it are blended again, then the layers are run
-        back: ∂L/∂s = g·α, ∂L/∂α = Σ_channels g·(s − h), and g·(1 − α) goes on to the layer below."""
-        fg, alpha, canvas, tile = ctx.saved_tensors
-        before = []
-        _blend_layers(canvas.clone(), tile, fg, alpha, ctx.layers, before)
+        """The layers are run back over the tiles each was blended onto: ∂L/∂s = g·α,
+        ∂L/∂α = Σ_channels g·(s − h), and g·(1 − α) goes on to the layer below."""
+        fg, alpha, tile, *before = ctx.saved_tensors
         grad, grad_fg, grad_alpha = grad.clone(), [], []
         for (t, f, a), under in reversed(list(zip(_layers(tile, fg, alpha, ctx.layers), before))):
             g = grad.index_select(0, t)
