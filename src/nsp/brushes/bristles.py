@@ -23,6 +23,7 @@ every render size.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -70,6 +71,7 @@ def ramp(lo: float, hi: float, x: Tensor) -> Tensor:
     return ((x - lo) * (1 / (hi - lo))).clamp(0, 1)
 
 
+@functools.cache  # asked at every render
 def detail(scale: float) -> tuple[bool, ...]:
     """Which of the model's parts are drawn on a canvas ``scale`` px wide: the tracks' ragged starts,
     then each of :data:`SCALES` (a scale is drawn from a weight of :data:`FAINTEST`); none: each
