@@ -1,6 +1,7 @@
 """`python -m nsp.render`: PNG from the engine, SVG a browser-grade renderer draws alike, GIF in order."""
 import io
 import json
+import os
 import subprocess
 import sys
 
@@ -175,6 +176,18 @@ def test_an_interrupted_write_leaves_the_old_file_and_no_other(tmp_path):
     with atomic_path(tmp_path / "o.png") as temporary:
         temporary.write_text("new")
     assert [p.name for p in tmp_path.iterdir()] == ["o.png"] and (tmp_path / "o.png").read_text() == "new"
+
+
+def test_a_write_removes_what_killed_writers_left_in_its_folder_and_nothing_else(tmp_path):
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead, alive = int(ended.stdout), os.getpid()
+    left = [f".animation.{dead}-0123abcd.tmp.gif", f".strokes.{dead}-89abcdef.tmp"]  # a killed painting's
+    kept = [f".final.{alive}-0123abcd.tmp.png", f".notes.{dead}.txt", "animation.gif"]  # a live writer's; not ours
+    for name in left + kept:
+        (tmp_path / name).write_text("x")
+    with atomic_path(tmp_path / "final.png") as temporary:
+        temporary.write_text("new")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(kept + ["final.png"])
 
 
 def test_device_auto_is_the_gpu_torch_sees_else_the_cpu(painting, tmp_path):

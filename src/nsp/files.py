@@ -1,10 +1,11 @@
 """Files written whole (:func:`write_json`, and :func:`atomic_path` for any format): each is written beside its place and renamed into it, and what a writer that
-was killed (``kill -9``, a power cut) left beside it is removed by the next writer of that place."""
+was killed (``kill -9``, a power cut) left is removed by the next write into that folder."""
 from __future__ import annotations
 
 import glob
 import json
 import os
+import re
 import secrets
 import shutil
 from collections.abc import Iterator
@@ -16,16 +17,27 @@ from pathlib import Path
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary path beside ``path`` to write to; it becomes ``path`` only once the write has
     finished, so an interrupted write leaves the old file or none, never a truncated one. The
-    temporary names its process, so one left by a process that has ended is removed here."""
+    temporary names its process, so those a process that has ended left in the folder (a killed
+    painting's half-written final.png, GIF, …) are removed here."""
     path = Path(path)
-    prefix = f".{path.stem}."
-    remove_leftovers(path.parent, prefix)
-    temporary = path.with_name(f"{prefix}{os.getpid()}-{secrets.token_hex(4)}.tmp{path.suffix}")  # suffix: PIL's format
+    remove_temporaries(path.parent)
+    temporary = path.with_name(f".{path.stem}.{os.getpid()}-{secrets.token_hex(4)}.tmp{path.suffix}")  # suffix: PIL's format
     try:
         yield temporary
         os.replace(temporary, path)
     finally:
         temporary.unlink(missing_ok=True)
+
+
+TEMPORARY = re.compile(r"\.(?P<stem>.+)\.(?P<pid>\d+)-[0-9a-f]{8}\.tmp(\.[^.]*)?")  # atomic_path's
+
+
+def remove_temporaries(folder: Path) -> None:
+    """Remove the temporaries of :func:`atomic_path` in ``folder`` whose process has ended."""
+    if folder.is_dir():
+        for entry in folder.glob(".*.tmp*"):
+            if (match := TEMPORARY.fullmatch(entry.name)) and entry.is_file() and not running(int(match["pid"])):
+                entry.unlink(missing_ok=True)
 
 
 def remove_leftovers(folder: Path, prefix: str) -> None:
