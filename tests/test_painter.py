@@ -22,7 +22,7 @@ from nsp.painter.palette import Palette
 from nsp.painter.placement import Forms, largest_errors, place_strokes
 from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
 from nsp.painter.schema import ScheduleConfig
-from nsp.painter.structure import orientation, structure_tensor
+from nsp.painter.structure import orientation, smooth, structure_tensor
 
 PACKAGE = Path(nsp.__file__).parent  # nsp's own modules, wherever the checkout lies
 
@@ -235,7 +235,7 @@ def test_a_portrait_painted_with_overshooting_steps_gets_no_patch_of_colour_the_
 def test_stroke_colours_are_clamped_to_the_targets_range_around_them():
     target = torch.zeros(1, 3, 16, 16)
     target[..., 8:] = 0.5  # right half mid grey
-    palette = Palette(target, window=3, margin=0.0)
+    palette = Palette(smooth(target, 3), window=3, margin=0.0)
     brush = get_brush("tape")
     x = torch.tensor([[[0.1, 0.5, 0.2, 0.1, 0.0, 1.0, 1.0, 1.0], [0.9, 0.5, 0.2, 0.1, 0.0, 1.0, 0.2, 0.0]]])
     palette.clamp_(brush, x, torch.tensor([0]))

@@ -170,8 +170,8 @@ class Painter:
         exists = torch.arange(depth, device="cpu")[None] < level.counts[:, None]  # (B, K), as level.counts: the CPU
         x = torch.zeros(level.blocks, depth, self.brush.d, device=target.device, requires_grad=True)
         optimizer = self.optimizer([x])
-        palette = Palette(goal, max(5, round(self.schedule.init_size[1] * size))) if self.schedule.palette else None  # a long stroke wide
         forms = Forms.of(goal)
+        palette = Palette(forms.colors, max(5, round(self.schedule.init_size[1] * size))) if self.schedule.palette else None  # a long stroke wide
         painted = torch.zeros_like(exists)
         self._active = (level, x, painted, size)
         current = under.clone()

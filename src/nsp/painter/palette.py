@@ -6,7 +6,6 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.painter.structure import smooth
 
 
 class Palette:
@@ -16,15 +15,16 @@ class Palette:
     would allow a green no pixel there has.
 
     Args:
-        target: (B, 3, h, w) the blocks as they should look.
+        colors: (B, 3, h, w) the blocks as they should look, 3×3-smoothed (:attr:`Forms.colors
+            <nsp.painter.placement.Forms>`, :func:`~nsp.painter.structure.smooth`).
         window: side of the window in block pixels (made odd).
         margin: how far (RGB distance) from the nearest of them a colour may go.
     """
 
-    def __init__(self, target: Tensor, window: int, margin: float = 0.1):
-        self.colors = smooth(target, 3)  # (B, 3, h, w)
+    def __init__(self, colors: Tensor, window: int, margin: float = 0.1):
+        self.colors = colors
         half = (window | 1) // 2
-        offsets = torch.arange(-half, half + 1, device=target.device)
+        offsets = torch.arange(-half, half + 1, device=colors.device)
         self.dy, self.dx = offsets.repeat_interleave(len(offsets)), offsets.repeat(len(offsets))  # (n,) each
         self.margin = margin
 
