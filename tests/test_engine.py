@@ -252,7 +252,7 @@ def test_compiled_path_is_chosen_only_where_it_pays(generator, monkeypatch, tmp_
     assert fused.pays(oil, strokes, 1024, 1024) and fused.pays(oil, strokes, 1024, 768)
     assert not fused.pays(oil, strokes[:1000], 2048, 2048) and fused.pays(oil, strokes[:1000], 1024, 1024)
     textured = dataclasses.replace(oil, texture_path=EMBEDDED + "…", _cache={})  # sampled to each canvas: a kernel per size
-    assert not fused.any_size(textured, 64)
+    assert textured.sized(64) is None
     sized = fused.package(shade_tiles, textured, dict(height=1024, width=1024, tile=8, softness=None), strokes.device)
     sized.touch()
     assert fused.pays(textured, strokes, 1024, 1024) and not fused.pays(textured, strokes, 1024, 768)

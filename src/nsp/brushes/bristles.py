@@ -146,10 +146,10 @@ def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key
     height = slope = 0
     unseen = 0.0  # the variance of H left undrawn
     for k, (cells, grain, relief, drawn) in enumerate(zip(SCALES, GRAIN, RELIEF, scales)):
-        weight = seen(cells * width)
+        cell = cells * width  # pixels
+        weight = seen(cell)
         unseen = unseen + (1 - weight**2) * (grain * NOISE_STD) ** 2
         if drawn:
-            cell = cells * width  # pixels
             value, rise = value_noise(c / cell, s / (STRETCH * cell), key + k * 0x61C88647)
             height = height + weight * grain * (value - 0.5)
             slope = slope + weight * relief / cells * rise

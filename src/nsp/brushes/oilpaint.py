@@ -52,7 +52,7 @@ class OilPaint(Brush):
         return self._with(bristles.detail(0))
 
     def sized(self, width: int) -> "OilPaint | None":
-        return None if self.texture_path else self._with(bristles.detail(width) if self.detail is None else self.detail)
+        return None if self.texture_path else self._with(self._parts(width))
 
     def _with(self, detail: tuple[bool, ...]) -> "OilPaint":
         """This brush drawing the bristle model's ``detail`` on a canvas of any size."""
@@ -60,8 +60,12 @@ class OilPaint(Brush):
             self._cache[detail] = dataclasses.replace(self, detail=detail, _cache={})
         return self._cache[detail]
 
+    def _parts(self, width: int | Tensor) -> tuple[bool, ...]:
+        """The bristle model's parts this brush draws on a canvas ``width`` px wide (:func:`bristles.detail`)."""
+        return bristles.detail(width) if self.detail is None else self.detail
+
     def varies(self, width: int) -> bool:
-        return self.texture_path is None and any(bristles.detail(width) if self.detail is None else self.detail)
+        return self.texture_path is None and any(self._parts(width))
 
     @property
     def variant(self) -> str:
@@ -110,8 +114,7 @@ class OilPaint(Brush):
         edge = box(along, across, half_w, half_h)
         if self.texture_path is None:
             key = pix.key if pix.key is not None else torch.zeros_like(along[:, :1], dtype=torch.int64)
-            detail = bristles.detail(pix.width) if self.detail is None else self.detail
-            paint = bristles.surface(s, across, u, length, half_h, key, pix.width, light, detail)
+            paint = bristles.surface(s, across, u, length, half_h, key, pix.width, light, self._parts(pix.width))
             return coverage(torch.maximum(edge, paint.outline)) * paint.cover, paint, u
         paint = self._textured(u, across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5, pix.width, light)
         return coverage(edge) * paint.cover, paint, u

@@ -67,8 +67,8 @@ def pays(brush: Brush, strokes: Tensor, height: int, width: int, softness: float
     if strokes.device.type != "cpu" or (strokes.requires_grad and torch.is_grad_enabled()):
         return False
     eager = float(brush.box_area(strokes, height, width).sum()) * EAGER_NS.get(brush.name, EAGER_NS["watercolor"]) * 1e-9
-    if any_size(brush, width):
-        cached = _any_size_cached(brush.sized(width), softness, tile, (shade_any_size,))
+    if (sized := brush.sized(width)) is not None:  # one kernel for every canvas of this one's detail
+        cached = _any_size_cached(sized, softness, tile, (shade_any_size,))
     else:
         cached = package(shade_tiles, brush, dict(height=height, width=width, tile=tile, softness=softness),
                          strokes.device).exists()
@@ -149,13 +149,6 @@ def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, 
     return out[0] if len(out) == 1 else tuple(out)
 
 
-def any_size(brush: Brush, width: int) -> bool:
-    """Whether one kernel (:func:`~nsp.engine.kernels.shade_any_size`) shades ``brush``'s paint on a
-    canvas ``width`` px wide: that of its :meth:`~nsp.brushes.Brush.sized` form, which serves every
-    canvas of the same detail; not a user's texture, sampled to the size."""
-    return brush.sized(width) is not None
-
-
 def _any_size_cached(brush: Brush, softness: float | None, tile: int, stages) -> bool:
     """Whether the CPU kernels of every size of these ``stages`` of ``brush`` (a
     :meth:`~nsp.brushes.Brush.sized` form) are on disk."""
@@ -168,9 +161,9 @@ def soft_pays(brush: Brush, softness: float, strokes: int, block: int = 64) -> b
     to finish sooner with the soft renders shaded by their compiled kernels
     (:class:`~nsp.engine.raster.AnySizeShade`, of any block size; a first compile of both included);
     never where no kernel of any size serves (a user's texture)."""
-    if not any_size(brush, block):
+    if (sized := brush.sized(block)) is None:
         return False
-    cached = _any_size_cached(brush.sized(block), softness, 8, (shade_any_size, shade_any_size_grad))
+    cached = _any_size_cached(sized, softness, 8, (shade_any_size, shade_any_size_grad))
     return strokes * SOFT_SAVED_MS[brush.name] * 1e-3 > (0.0 if cached else SOFT_COMPILE_SECONDS[brush.name])
 
 

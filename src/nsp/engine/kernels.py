@@ -49,7 +49,7 @@ def shade_any_size(brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, 
                    tile: int, softness: float | None) -> tuple[Tensor, Tensor]:
     """:func:`shade_tiles` on a canvas whose (height, width) is the tensor ``canvas`` (2,), not a
     constant: one compiled kernel serves every canvas size, for a brush that shades them all alike
-    (a :meth:`~nsp.brushes.Brush.sized` form: oil's bristles of one detail; :func:`nsp.engine.fused.any_size`)."""
+    (a :meth:`~nsp.brushes.Brush.sized` form: oil's bristles of one detail)."""
     return shade_tiles(brush, x, t, key, dx, dy, height=canvas[0], width=canvas[1], tile=tile, softness=softness)
 
 

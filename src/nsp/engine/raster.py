@@ -127,7 +127,7 @@ def rasterize(
     before ``brush.paint`` shades their pixels. ``compile`` culls and shades them by the brush's
     compiled kernels (:func:`nsp.engine.fused.fused`): several times faster, once this machine has
     compiled them (:func:`nsp.engine.fused.pays` tells when that is worth it). Where one kernel
-    serves every canvas of this one's detail (:func:`nsp.engine.fused.any_size`: all but a user's
+    serves every canvas of this one's detail (:meth:`~nsp.brushes.Brush.sized`: all but a user's
     texture), it culls eagerly and shades by that kernel, differentiably (:class:`AnySizeShade`).
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
