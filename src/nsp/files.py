@@ -54,7 +54,8 @@ def remove_leftovers(folder: Path, prefix: str) -> None:
 
 
 def running(pid: int) -> bool:
-    """Whether process ``pid`` still runs (on this machine)."""
+    """Whether process ``pid`` still runs (on this machine): not one that has ended, nor one that
+    has ended and is not yet reaped by its parent (a zombie, where Linux's /proc tells)."""
     try:
         os.kill(pid, 0)  # signal 0: asks, sends nothing
     except ProcessLookupError:
@@ -63,7 +64,10 @@ def running(pid: int) -> bool:
         return True
     except (OverflowError, OSError):
         return False
-    return True
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"  # after "pid (name)": the state
+    except (OSError, IndexError):  # no /proc
+        return True
 
 
 

@@ -8,6 +8,7 @@ modules (torch) are imported only once the command line has been read.
 from __future__ import annotations
 
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -16,11 +17,13 @@ from omegaconf import MISSING, DictConfig
 
 from nsp.cli import INTERRUPTED, command, in_sweep, kept, program, run_job
 from nsp.config import BrushConfig
+from nsp.painter.ahead import FilesAhead
 from nsp.painter.schema import PaintConfig, follows_checkpoint  # config only: no torch
 from nsp.text import counted
 
 log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.log
 
+AHEAD_STROKES = 100  # fewer are painted about as soon as the files' process has imported torch: no time gained
 TEXT = ("image", "background", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
 
 def main(cfg: DictConfig) -> float | None:
@@ -28,6 +31,7 @@ def main(cfg: DictConfig) -> float | None:
     if cfg.task is None and not kept(cfg):  # the first line, before the work's modules load (seconds)
         what = f"{cfg.strokes} strokes of the checkpoint's brush" if follows_checkpoint(cfg, named) else counted(cfg.strokes, cfg.brush.name + " stroke")
         log.info(f"painting {cfg.image} with {what}…")
+    ahead = FilesAhead() if writes_ahead(cfg) else None  # its import of torch beside this one's
     import torch
     from hydra.utils import instantiate
 
@@ -43,13 +47,24 @@ def main(cfg: DictConfig) -> float | None:
             log.info(f"{cfg.output_dir}: " + ", ".join(f"{key} {value}" for key, value in metrics.items()))
         return None if metrics is None else metrics.get("psnr", 0.0)
     try:
-        metrics = run_job(cfg, lambda cfg: paint(cfg, brush_named=named))  # its last line tells what was painted, how well, how fast, where
+        metrics = run_job(cfg, lambda cfg: paint(cfg, brush_named=named, ahead=ahead))  # its last line tells what was painted, how well, how fast, where
     except KeyboardInterrupt:
         saved = [name for name in ("strokes.json", "final.png") if (Path(cfg.output_dir) / name).is_file()]
         print(f"interrupted: {' and '.join(saved)} of what was painted in {cfg.output_dir}" if saved else
               "interrupted before painting began; nothing written", file=sys.stderr)
         sys.exit(INTERRUPTED)
+    finally:
+        if ahead is not None:
+            ahead.close()
     return None if metrics is None else metrics["psnr"]  # None: a failed job of a sweep, recorded in its dir
+
+
+def writes_ahead(cfg: DictConfig) -> bool:
+    """Whether a single painting of :data:`AHEAD_STROKES` strokes or more, on its default threads,
+    on the CPU of a machine of two cores or more, writes its files ahead (:mod:`nsp.painter.ahead`):
+    not styled, not a sweep's job (a core each)."""
+    return (cfg.task is None and cfg.style.image is None and cfg.threads is None and str(cfg.device) == "cpu"
+            and cfg.strokes >= AHEAD_STROKES and not in_sweep() and len(os.sched_getaffinity(0)) > 1)
 
 
 def schema() -> object:

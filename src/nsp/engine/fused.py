@@ -117,8 +117,10 @@ def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple
     return path
 
 
-@functools.cache
-def _kernel(path: Path, device: torch.device):
+_LOADED: dict[tuple, torch._C._aoti.AOTIModelPackageLoader] = {}  # by cache, stage, brush variant, constants, device
+
+
+def _kernel(path: Path, device: torch.device) -> torch._C._aoti.AOTIModelPackageLoader:
     # The package's C++ loader, not `torch._inductor.aoti_load_package`, whose import (~1.5 s)
     # takes longer than most renders.
     return torch._C._aoti.AOTIModelPackageLoader(str(path), "model", False, 1, -1 if device.index is None else device.index)
@@ -132,19 +134,21 @@ def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, 
     x = paired[0]
     if not 2 <= len(x) <= MOST_PAIRS or x.dtype != torch.float32 or (x.requires_grad and torch.is_grad_enabled()):
         return stage(brush, *paired, *fixed, **consts)  # outside the kernel's batch sizes and dtype; it has no backward
-    path = package(stage, brush, consts, x.device)
-    try:
-        if not path.exists():
-            compile_kernel(stage, brush, paired, fixed, consts, x.device)
-        kernel = _kernel(path, x.device)
-    except OSError as err:  # a cache that cannot be written: this render goes without
-        log.warning(f"compiled kernels: cannot write {CACHE} ({err.strerror or err}); rendering without them")
-        return stage(brush, *paired, *fixed, **consts)
-    except RuntimeError as err:  # a package that cannot be loaded (truncated, empty, not one): compiled afresh next time
-        path.unlink(missing_ok=True)
-        log.warning(f"compiled kernels: {path.name} could not be loaded ({str(err).splitlines()[0]}); removed it, "
-                    "rendering without it")
-        return stage(brush, *paired, *fixed, **consts)
+    key = (CACHE, stage, brush.name, brush.d, brush.variant, tuple(sorted(consts.items())), x.device)
+    if (kernel := _LOADED.get(key)) is None:  # a render asks for a kernel thousands of times: its file is found once
+        path = package(stage, brush, consts, x.device)
+        try:
+            if not path.exists():
+                compile_kernel(stage, brush, paired, fixed, consts, x.device)
+            kernel = _LOADED[key] = _kernel(path, x.device)
+        except OSError as err:  # a cache that cannot be written: this render goes without
+            log.warning(f"compiled kernels: cannot write {CACHE} ({err.strerror or err}); rendering without them")
+            return stage(brush, *paired, *fixed, **consts)
+        except RuntimeError as err:  # a package that cannot be loaded (truncated, empty, not one): compiled afresh next time
+            path.unlink(missing_ok=True)
+            log.warning(f"compiled kernels: {path.name} could not be loaded ({str(err).splitlines()[0]}); removed it, "
+                        "rendering without it")
+            return stage(brush, *paired, *fixed, **consts)
     out = kernel.boxed_run([p.contiguous() for p in paired] + list(fixed))
     return out[0] if len(out) == 1 else tuple(out)
 

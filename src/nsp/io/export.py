@@ -101,21 +101,18 @@ def _indexed(image: Tensor, palette: Image.Image) -> Image.Image:
 
 def write_svg(
     path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
-    images: list | None = None, workers: int = 1,
+    elements: list[tuple[str, str]] | None = None,
 ) -> None:
     """Each stroke as the brush's SVG elements, in painting order, on a ``height``×``width`` canvas;
-    a brush whose paint has no vector form (oil's bristles) as each stroke's paint, an image:
-    ``images``, the strokes' :func:`~nsp.engine.canvas.box_images` where a render already made them,
-    encoded on ``workers`` threads (PNG compression lets go of the interpreter)."""
-    if brush.svg_painted:
-        if images is None:
-            images = []
-            with torch.no_grad():
-                paint_canvas(brush, strokes.detach().cpu(), height, width, background, images=images)
-        drawn = [image for image in images if image[2].numel()]  # a stroke off the canvas has none
-        with ThreadPoolExecutor(workers) as pool:
-            elements = [("", element) for element in pool.map(lambda image: image_element(*image[:2], image[2].numpy()), drawn)]
-    else:
+    a brush whose paint has no vector form (oil's bristles) as each stroke's paint, an image.
+    ``elements``: the strokes' (definitions, element) pairs where they were made already (as a render
+    drew them: :func:`painted_elements`); None: made here."""
+    if elements is None and brush.svg_painted:
+        images = []
+        with torch.no_grad():
+            paint_canvas(brush, strokes.detach().cpu(), height, width, background, images=images)
+        elements = painted_elements(images)
+    elif elements is None:
         elements = list(brush.svg_elements(strokes.detach().cpu().double().numpy(), height, width))
     defs, body = [d for d, _ in elements], [e for _, e in elements]
     svg = "\n".join(
@@ -130,6 +127,15 @@ def write_svg(
     )
     with atomic_path(path) as temporary:
         temporary.write_text(svg)
+
+
+def painted_elements(images: list[tuple[int, int, Tensor]], workers: int = 1) -> list[tuple[str, str]]:
+    """The SVG elements of strokes whose paint has no vector form: each stroke's
+    :func:`~nsp.engine.canvas.box_images` image (none for a stroke off the canvas), encoded on
+    ``workers`` threads (PNG compression lets go of the interpreter)."""
+    drawn = [image for image in images if image[2].numel()]
+    with ThreadPoolExecutor(workers) as pool:
+        return [("", element) for element in pool.map(lambda image: image_element(*image[:2], image[2].cpu().numpy()), drawn)]
 
 
 def write_painting(path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str,

@@ -10,6 +10,7 @@ from torch.utils.tensorboard import SummaryWriter
 from torch.utils.tensorboard.summary import hparams
 
 from nsp.images import psnr, resize
+from nsp.painter.ahead import FilesAhead
 from nsp.painter.painter import Callback, Painter
 
 
@@ -50,6 +51,19 @@ class TensorBoard(Callback):
         for summary in hparams(dict(settings), {f"final/{name}": 0.0 for name in scores}):
             self.writer._get_file_writer().add_summary(summary)
         self.writer.flush()
+
+
+class SendLevels(Callback):
+    """Each finished level's strokes to the process writing the painting's files ahead
+    (:class:`~nsp.painter.ahead.FilesAhead`)."""
+
+    def __init__(self, files: FilesAhead):
+        self.files, self.sent = files, 0
+
+    def on_level(self, painter: Painter, level: int, canvas: Tensor) -> None:
+        strokes = painter.strokes()
+        self.files.add(strokes[self.sent:])
+        self.sent = len(strokes)
 
 
 class ProgressBar(Callback):

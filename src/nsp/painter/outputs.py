@@ -8,57 +8,91 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
+from nsp.colors import parse_color
 from nsp.engine import paint_canvas
+from nsp.engine.canvas import TiledCanvas
+from nsp.engine.fused import pays
 from nsp.images import long_side, psnr, resize, ssim
-from nsp.io.export import write_gif, write_png, write_svg
+from nsp.io.export import painted_elements, write_gif, write_png, write_svg
 from nsp.io.strokes import StrokeFile, save_strokes
 
 SCORE_SIZE = 256  # long side at which psnr and ssim compare the painting with the photo
 
 
 def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str,
-                          render_size: int, images: list | None = None) -> Tensor:
+                          render_size: int) -> None:
     """Write ``strokes.json`` and ``final.png`` (the engine, long side ``render_size``) of strokes
-    (N, d) painted on a canvas of ``aspect`` (height, width); returns the image (3, h, w).
-    ``images``, if given, gets each stroke's image from the same render (see :func:`write_svg`)."""
+    (N, d) painted on a canvas of ``aspect`` (height, width): what an interrupted run keeps."""
     height, width = long_side(*aspect, render_size)
     save_strokes(out / "strokes.json", StrokeFile(brush, strokes, height, width, background))
     with torch.no_grad():
-        final = paint_canvas(brush, strokes, height, width, background, images=images)
-    write_png(out / "final.png", final)
-    return final
+        write_png(out / "final.png", paint_canvas(brush, strokes, height, width, background))
+
+
+class PaintingFiles:
+    """A painting's files, made as its strokes come, in painting order: :meth:`add` paints them
+    onto final.png's canvas (and makes the SVG's images of a brush whose paint has no vector form),
+    :meth:`finish` writes every file. All at once (:func:`write_files`), or a level at a time while
+    the painting goes on (:mod:`nsp.painter.ahead`), the files are the same.
+
+    Args:
+        out: the run dir.
+        brush, background: the painting's.
+        aspect: (height, width) of the canvas painted; final.png and painting.svg have a long side
+            of ``render_size``.
+        workers: threads (of one torch thread each) the work is shared on.
+        device: where the strokes are, and the canvas is painted.
+    """
+
+    def __init__(self, out: Path, brush: Brush, aspect: tuple[int, int], background: str, render_size: int,
+                 workers: int = 1, device: torch.device | str = "cpu"):
+        self.out, self.brush, self.aspect, self.background, self.workers = out, brush, aspect, background, workers
+        self.height, self.width = long_side(*aspect, render_size)
+        color = torch.tensor(parse_color(background), device=device)[:, None, None]
+        self.canvas = TiledCanvas(color.expand(3, self.height, self.width))
+        self.elements: list[tuple[str, str]] | None = [] if brush.svg_painted else None  # else made by finish
+        self.count = 0  # strokes painted
+
+    def add(self, strokes: Tensor) -> None:
+        """Paint the next ``strokes`` (n, d) of the painting onto final.png's canvas."""
+        images = None if self.elements is None else []
+        with torch.no_grad():
+            self.canvas.paint(self.brush, strokes, compile=pays(self.brush, strokes, self.height, self.width),
+                              first=self.count, images=images)
+        if images is not None:
+            self.elements += painted_elements(images, self.workers)
+        self.count += len(strokes)
+
+    def finish(self, strokes: Tensor, animation_size: int, frames: int | None, photo: Tensor) -> dict[str, float]:
+        """Write ``strokes.json``, ``final.png`` and ``painting.svg`` of all the ``strokes`` (N, d),
+        those not yet added painted first, and ``animation.gif`` (strokes in order, long side
+        ``animation_size``, at most ``frames`` frames after the empty canvas; None: one a stroke)
+        beside them; returns final.png's :func:`similarity` to ``photo``."""
+        threads = torch.get_num_threads()
+        torch.set_num_threads(1)  # a file a core: each file's ops are too small to split well
+        try:
+            with ThreadPoolExecutor(1) as pool:
+                gif = pool.submit(write_gif, self.out / "animation.gif", self.brush, strokes,
+                                  *long_side(*self.aspect, animation_size), self.background, frames=frames)
+                self.add(strokes[self.count:])
+                save_strokes(self.out / "strokes.json", StrokeFile(self.brush, strokes, self.height, self.width, self.background))
+                final = self.canvas.image()
+                write_png(self.out / "final.png", final)
+                write_svg(self.out / "painting.svg", self.brush, strokes, self.height, self.width, self.background,
+                          self.elements)
+                scores = similarity(final, photo)
+                gif.result()
+                return scores
+        finally:
+            torch.set_num_threads(threads)
 
 
 def write_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str, render_size: int,
                 animation_size: int, frames: int | None, photo: Tensor, workers: int) -> dict[str, float]:
-    """Write every file of a painting: ``strokes.json`` and ``final.png`` (:func:`write_strokes_and_png`),
-    ``painting.svg`` (long side ``render_size``) and ``animation.gif`` (strokes in order, long side
-    ``animation_size``, at most ``frames`` frames after the empty canvas; None: one a stroke), on
-    ``workers`` threads of one torch thread each (the files are independent, but for an SVG of
-    stroke images, which final.png's render makes); returns final.png's :func:`similarity` to ``photo``."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)  # a file a core: each file's ops are too small to split well
-    images = [] if brush.svg_painted else None
-    try:
-        with ThreadPoolExecutor(workers) as pool:  # the longest first
-
-            def write_painting_svg() -> None:
-                if images is not None:
-                    final.result()  # its render makes them
-                write_svg(out / "painting.svg", brush, strokes, *long_side(*aspect, render_size), background, images,
-                          workers)  # final.png's render done, its images are encoded on every core
-
-            vector = images is None  # a vector SVG is written a stroke at a time in Python: the longest, first
-            svg = pool.submit(write_painting_svg) if vector else None
-            final = pool.submit(write_strokes_and_png, out, strokes, brush, aspect, background, render_size, images)
-            gif = pool.submit(write_gif, out / "animation.gif", brush, strokes, *long_side(*aspect, animation_size),
-                              background, frames=frames)
-            svg = svg if vector else pool.submit(write_painting_svg)  # after final.png's render, whose images it takes
-            scores = similarity(final.result(), photo)  # while the GIF and the SVG are written
-            svg.result(), gif.result()
-            return scores
-    finally:
-        torch.set_num_threads(threads)
+    """Write every file of a painting of ``strokes`` (N, d) at once (:class:`PaintingFiles`, on
+    ``workers`` threads); returns final.png's :func:`similarity` to ``photo``."""
+    files = PaintingFiles(out, brush, aspect, background, render_size, workers, strokes.device)
+    return files.finish(strokes, animation_size, frames, photo)
 
 
 def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:

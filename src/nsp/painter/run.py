@@ -24,7 +24,8 @@ from nsp.errors import BadInput
 from nsp.files import write_json
 from nsp.images import load_image, long_side, resize
 from nsp.io.export import frame_ends, write_png
-from nsp.painter.callbacks import ProgressBar, TensorBoard
+from nsp.painter.ahead import FilesAhead
+from nsp.painter.callbacks import ProgressBar, SendLevels, TensorBoard
 from nsp.painter.faces import find_faces
 from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import SCORE_SIZE, write_files, write_strokes_and_png
@@ -157,10 +158,13 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
     return strokes, background, bar.seconds
 
 
-def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool = True) -> dict:
+def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool = True,
+          ahead: FilesAhead | None = None) -> dict:
     """Paint ``cfg.image`` (or ``photo``, as :func:`prepare` takes it); write the painting's files into
     ``cfg.output_dir``; return the metrics (``seconds``: the whole run, the checks and files included).
     Unless ``brush_named``, a trained renderer paints with its checkpoint's brush (:func:`follows_checkpoint`).
+    ``ahead``: a process to write the files in while the painting goes on, the painter then on one
+    core (:mod:`nsp.painter.ahead`); closed here where the strokes are styled after it.
 
     Interrupted (Ctrl-C, SIGTERM) or failing part-way, it still writes ``strokes.json`` and
     ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises.
@@ -169,8 +173,11 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
     if follows_checkpoint(cfg, brush_named):
         cfg.brush.name = checkpoint_brush(cfg.renderer.checkpoint)
     painter, photo, image, style = prepare(cfg, photo)
-    if cfg.threads:
-        torch.set_num_threads(cfg.threads)
+    if ahead is not None and image is not None:  # the styled strokes are the painting's: its files are written here
+        ahead.close()
+        ahead = None
+    if cfg.threads or ahead is not None:  # beside the files' process, a second thread would wait on it
+        torch.set_num_threads(cfg.threads or 1)
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
@@ -180,11 +187,17 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
         board = TensorBoard(writer, target)
         with ProgressBar(cfg.strokes, cfg.progress) as bar:  # the painting's time: its face search too
             painter.callbacks += [board, bar]
+            if ahead is not None:
+                ahead.begin(out, dict(name=cfg.brush.name, texture=cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto),
+                            *shared[1:])
+                painter.callbacks.append(SendLevels(ahead))
             try:
                 faces = find_faces(target) if round(painter.schedule.face_share * cfg.strokes) else []
                 strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
             except BaseException:
                 with shielded():
+                    if ahead is not None:
+                        ahead.close()
                     write_strokes_and_png(out, painter.strokes(), *shared)
                 raise
         painting = bar.seconds
@@ -199,10 +212,14 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
             frames = len(frame_ends(len(strokes), cfg.animation_frames))
             log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
             files = time.perf_counter()
-            scores = write_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames, photo,
-                                 workers=min(3, torch.get_num_threads()))
+            scores = None if ahead is None else ahead.finish(strokes, cfg.animation_size, cfg.animation_frames, photo)
+            if scores is None:
+                scores = write_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames, photo,
+                                     workers=min(3, torch.get_num_threads()))
         except BaseException:
             with shielded():
+                if ahead is not None:
+                    ahead.close()
                 write_strokes_and_png(out, strokes, *shared)  # the painting (styled where that step finished)
             raise
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")

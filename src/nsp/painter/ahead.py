@@ -1,0 +1,141 @@
+"""A painting's files made ahead, in a process of their own, while it is painted.
+
+``python -m nsp.paint`` on a machine of two cores or more starts this process before it imports
+torch, so the two imports run side by side. The painter then takes one core and this process the
+other: each finished level's strokes come to it and it paints them onto final.png's canvas (and
+makes oil's SVG images, :class:`~nsp.painter.outputs.PaintingFiles`), so that once the last level
+is done only its strokes, the GIF and the encoding are left. The files are those
+:func:`~nsp.painter.outputs.write_files` would write. This module's importer's half imports no
+torch; the process runs ``python -m nsp.painter.ahead`` and takes pickled messages on its stdin:
+``("begin", out, brush, aspect, background, render_size)``, ``("add", strokes)`` a level, and
+``("finish", strokes, animation_size, frames, photo)``, to which it answers with the scores.
+"""
+from __future__ import annotations
+
+import ctypes
+import logging
+import os
+import pickle
+import queue
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger(__name__)
+PR_SET_PDEATHSIG = 1  # prctl's option: the signal a process gets when its parent ends
+
+
+class FilesAhead:
+    """The command's end of the process: :meth:`begin`, :meth:`add` as levels finish, then
+    :meth:`finish`; :meth:`close` ends the process, done or not (an interrupted painting)."""
+
+    def __init__(self):
+        self.errors = tempfile.TemporaryFile()  # what the process says on stderr, told if it fails
+        self.process = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid())], stdin=subprocess.PIPE,
+                                        stdout=subprocess.PIPE, stderr=self.errors)
+        self.outbox: queue.SimpleQueue = queue.SimpleQueue()
+        threading.Thread(target=self._send, daemon=True).start()
+
+    def _send(self) -> None:
+        """Pipe the messages to the process, on a thread of its own: the painter never waits on a full pipe."""
+        try:
+            while (message := self.outbox.get()) is not None:
+                pickle.dump(message, self.process.stdin, protocol=pickle.HIGHEST_PROTOCOL)
+                self.process.stdin.flush()
+            self.process.stdin.close()
+        except OSError:  # the process has ended: finish tells
+            pass
+
+    def begin(self, out: Path, brush: dict[str, Any], aspect: tuple[int, int], background: str, render_size: int) -> None:
+        """The painting's files go to ``out``, of the brush ``get_brush(**brush)`` (see
+        :class:`~nsp.painter.outputs.PaintingFiles` for the rest)."""
+        self.outbox.put(("begin", str(out), brush, tuple(aspect), background, render_size))
+
+    def add(self, strokes) -> None:
+        """The painting's next strokes (n, d), a finished level's."""
+        self.outbox.put(("add", strokes.detach().cpu().numpy()))
+
+    def finish(self, strokes, animation_size: int, frames: int | None, photo) -> dict[str, float] | None:
+        """Write the files of all the ``strokes`` (N, d) (:meth:`PaintingFiles.finish
+        <nsp.painter.outputs.PaintingFiles.finish>`); their scores against ``photo`` (3, H, W), or
+        None where the process failed (a warning tells why; the caller writes the files itself).
+        Raises the ``OSError`` a file met (a full disk), as writing it here would have."""
+        self.outbox.put(("finish", strokes.detach().cpu().numpy(), animation_size, frames, photo.detach().cpu().numpy()))
+        self.outbox.put(None)
+        try:
+            answer = pickle.load(self.process.stdout)  # once every file is written, or one could not be
+        except (EOFError, pickle.UnpicklingError):
+            answer = None
+        if isinstance(answer, OSError):
+            raise answer
+        if answer is None:
+            self.process.wait()
+            self.errors.seek(0)
+            said = self.errors.read().decode(errors="replace").strip().splitlines()
+            log.warning(f"the process writing the files failed ({said[-1] if said else f'exit {self.process.returncode}'}); "
+                        "writing them here")
+        return answer
+
+    def close(self) -> None:
+        """End the process (at once if it is still at work) and let go of its pipes."""
+        if self.process.poll() is None:
+            self.process.kill()
+        self.process.wait()
+        for pipe in (self.process.stdin, self.process.stdout):
+            try:
+                pipe.close()
+            except OSError:  # a flush into the pipe of a killed process
+                pass
+        self.errors.close()
+
+
+def main() -> None:
+    """The process: its messages, in order, until ``finish`` (or the command's end)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the command's: it ends this process once it has kept what it had
+    _end_with(int(sys.argv[1]))
+    import torch
+
+    from nsp.brushes import get_brush
+    from nsp.painter.outputs import PaintingFiles
+
+    torch.set_num_threads(1)  # the painter has the other core
+    inbox, answers, files = sys.stdin.buffer, os.fdopen(os.dup(1), "wb"), None
+    os.dup2(2, 1)  # whatever else writes to stdout goes to stderr, not into the answer
+    while True:
+        try:
+            kind, *args = pickle.load(inbox)
+        except EOFError:  # the command ended without asking for the files
+            return
+        if kind == "begin":
+            out, brush, aspect, background, render_size = args
+            files = PaintingFiles(Path(out), get_brush(**brush), aspect, background, render_size)
+        elif kind == "add":
+            files.add(torch.from_numpy(args[0]))
+        else:
+            strokes, animation_size, frames, photo = args
+            try:
+                answer = files.finish(torch.from_numpy(strokes), animation_size, frames, torch.from_numpy(photo))
+            except OSError as error:  # the command's to tell (a full disk): it stops as if it had met it
+                answer = OSError(error.errno, error.strerror, error.filename)
+            pickle.dump(answer, answers)
+            answers.flush()
+            os._exit(0)  # without Python's tear-down after torch (0.4 s), which the command would wait for
+
+
+def _end_with(command: int) -> None:
+    """Be killed when the process ``command`` ends, however it ends (kill -9 too), where Linux
+    offers it (``PR_SET_PDEATHSIG``), rather than go on writing files into a run nothing waits on."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):  # not Linux: the end of the messages ends it
+        return
+    if os.getppid() != command:  # it ended before that was asked
+        os._exit(0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,121 @@
+"""A painting's files made a level at a time (``PaintingFiles``), and in a process of their own while
+it is painted (``nsp.painter.ahead``): the very files and scores of ``write_files``, and errors told."""
+import errno
+import json
+import logging
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+
+from nsp.brushes import get_brush
+from nsp.images import load_image
+from nsp.io.strokes import load_strokes
+from nsp.paint import AHEAD_STROKES, writes_ahead
+from nsp.painter.ahead import FilesAhead
+from nsp.painter.outputs import PaintingFiles, write_files
+
+FILES = ("strokes.json", "final.png", "painting.svg", "animation.gif")
+ASPECT, RENDER, ANIMATION, FRAMES = (40, 60), 96, 48, 6
+
+
+def strokes_of(brush, count: int = 30):
+    """Strokes as a painting makes them: broad ones first, then smaller ones."""
+    x = torch.rand(count, brush.d, generator=torch.Generator().manual_seed(0))
+    for i, kind in enumerate(brush.kinds):
+        if kind == "size":
+            x[:, i] *= torch.linspace(0.5, 0.1, count)
+    return x
+
+
+def made_at_once(out: Path, brush, strokes, photo) -> dict:
+    out.mkdir()
+    return write_files(out, strokes, brush, tuple(photo.shape[-2:]), "white", RENDER, ANIMATION, FRAMES, photo, workers=2)
+
+
+def same_files(a: Path, b: Path) -> None:
+    for name in FILES:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("name", ["oilpaint", "watercolor"])  # images in its SVG; vector elements
+def test_files_made_a_level_at_a_time_are_those_made_at_once(name, tmp_path):
+    brush, photo = get_brush(name), torch.rand(3, *ASPECT)
+    strokes = strokes_of(brush)
+    scores = made_at_once(tmp_path / "once", brush, strokes, photo)
+    files = PaintingFiles(tmp_path / "levels", brush, ASPECT, "white", RENDER)
+    (tmp_path / "levels").mkdir()
+    for part in strokes[:22].split([2, 8, 12]):  # the last level's strokes come with finish
+        files.add(part)
+    assert files.finish(strokes, ANIMATION, FRAMES, photo) == scores
+    same_files(tmp_path / "once", tmp_path / "levels")
+
+
+def test_files_written_ahead_in_their_own_process_are_those_written_here(tmp_path):
+    brush, photo = get_brush("oilpaint", seed=3), torch.rand(3, *ASPECT)
+    strokes = strokes_of(brush)
+    scores = made_at_once(tmp_path / "here", brush, strokes, photo)
+    (tmp_path / "ahead").mkdir()
+    ahead = FilesAhead()
+    try:
+        ahead.begin(tmp_path / "ahead", dict(name="oilpaint", texture=None, seed=3, impasto=True), ASPECT, "white", RENDER)
+        for part in strokes.split([10, 20]):
+            ahead.add(part)
+        assert ahead.finish(strokes, ANIMATION, FRAMES, photo) == scores
+    finally:
+        ahead.close()
+    assert ahead.process.returncode is not None  # ended
+    same_files(tmp_path / "here", tmp_path / "ahead")
+
+
+def test_a_files_process_that_fails_leaves_the_files_to_the_command_saying_why(tmp_path, caplog):
+    ahead = FilesAhead()
+    try:
+        ahead.begin(tmp_path, dict(name="crayon", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER)
+        with caplog.at_level(logging.WARNING, "nsp.painter.ahead"):
+            assert ahead.finish(torch.rand(3, 13), ANIMATION, FRAMES, torch.rand(3, *ASPECT)) is None
+    finally:
+        ahead.close()
+    assert "the process writing the files failed" in caplog.text and "crayon" in caplog.text
+    assert "writing them here" in caplog.text
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_file_the_process_cannot_write_is_the_commands_error(tmp_path):
+    taken = tmp_path / "taken"
+    taken.write_text("")  # a file where the run dir should be: no file can go into it
+    ahead = FilesAhead()
+    try:
+        ahead.begin(taken, dict(name="tape", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER)
+        with pytest.raises(OSError) as error:
+            ahead.finish(torch.rand(3, get_brush("tape").d), ANIMATION, FRAMES, torch.rand(3, *ASPECT))
+    finally:
+        ahead.close()
+    assert error.value.errno == errno.ENOTDIR and str(taken) in str(error.value.filename)
+
+
+def test_a_painting_writes_ahead_on_its_own_with_every_core_and_enough_strokes(tmp_path):
+    with initialize_config_dir(str(Path(__file__).parents[1] / "conf" / "paint"), version_base="1.3"):
+        cfg = compose("paint")
+        assert writes_ahead(cfg)  # this machine has 2 cores
+        for override in (f"strokes={AHEAD_STROKES - 1}", "threads=2", "style.image=chelsea"):
+            assert not writes_ahead(compose("paint", overrides=[override])), override
+
+
+def test_a_painting_whose_files_were_written_ahead_has_those_files_and_scores(tmp_path):
+    run = tmp_path / "run"
+    done = subprocess.run([sys.executable, "-m", "nsp.paint", f"strokes={AHEAD_STROKES}", "work_size=32", f"render_size={RENDER}",
+                           f"animation_size={ANIMATION}", f"animation_frames={FRAMES}", "progress=false",
+                           "schedule.steps_per_stroke=1", "schedule.polish=0", f"hydra.run.dir={run}"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert metrics["threads"] == 1  # the painter on one core, the files on the other
+    painted = load_strokes(run / "strokes.json")
+    photo = load_image("astronaut", max_side=256)
+    scores = made_at_once(tmp_path / "here", painted.brush, painted.strokes, photo)
+    assert {key: metrics[key] for key in scores} == scores
+    same_files(run, tmp_path / "here")
