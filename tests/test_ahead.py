@@ -3,8 +3,10 @@ it is painted (``nsp.painter.ahead``): the very files and scores of ``write_file
 import errno
 import json
 import logging
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -12,6 +14,7 @@ import torch
 from hydra import compose, initialize_config_dir
 
 from nsp.brushes import get_brush
+from nsp.cli import INTERRUPTED
 from nsp.images import load_image
 from nsp.io.strokes import load_strokes
 from nsp.paint import AHEAD_STROKES, writes_ahead
@@ -46,11 +49,11 @@ def test_files_made_a_level_at_a_time_are_those_made_at_once(name, tmp_path):
     brush, photo = get_brush(name), torch.rand(3, *ASPECT)
     strokes = strokes_of(brush)
     scores = made_at_once(tmp_path / "once", brush, strokes, photo)
-    files = PaintingFiles(tmp_path / "levels", brush, ASPECT, "white", RENDER)
+    files = PaintingFiles(tmp_path / "levels", brush, ASPECT, "white", RENDER, ANIMATION, FRAMES, len(strokes))
     (tmp_path / "levels").mkdir()
     for part in strokes[:22].split([2, 8, 12]):  # the last level's strokes come with finish
         files.add(part)
-    assert files.finish(strokes, ANIMATION, FRAMES, photo) == scores
+    assert files.finish(strokes, photo) == scores
     same_files(tmp_path / "once", tmp_path / "levels")
 
 
@@ -61,10 +64,11 @@ def test_files_written_ahead_in_their_own_process_are_those_written_here(tmp_pat
     (tmp_path / "ahead").mkdir()
     ahead = FilesAhead()
     try:
-        ahead.begin(tmp_path / "ahead", dict(name="oilpaint", texture=None, seed=3, impasto=True), ASPECT, "white", RENDER)
+        ahead.begin(tmp_path / "ahead", dict(name="oilpaint", texture=None, seed=3, impasto=True), ASPECT, "white", RENDER,
+                    ANIMATION, FRAMES, len(strokes))
         for part in strokes.split([10, 20]):
             ahead.add(part)
-        assert ahead.finish(strokes, ANIMATION, FRAMES, photo) == scores
+        assert ahead.finish(strokes, photo) == scores
     finally:
         ahead.close()
     assert ahead.process.returncode is not None  # ended
@@ -74,9 +78,10 @@ def test_files_written_ahead_in_their_own_process_are_those_written_here(tmp_pat
 def test_a_files_process_that_fails_leaves_the_files_to_the_command_saying_why(tmp_path, caplog):
     ahead = FilesAhead()
     try:
-        ahead.begin(tmp_path, dict(name="crayon", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER)
+        ahead.begin(tmp_path, dict(name="crayon", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER, ANIMATION,
+                    FRAMES, 3)
         with caplog.at_level(logging.WARNING, "nsp.painter.ahead"):
-            assert ahead.finish(torch.rand(3, 13), ANIMATION, FRAMES, torch.rand(3, *ASPECT)) is None
+            assert ahead.finish(torch.rand(3, 13), torch.rand(3, *ASPECT)) is None
     finally:
         ahead.close()
     assert "the process writing the files failed" in caplog.text and "crayon" in caplog.text
@@ -89,9 +94,9 @@ def test_a_file_the_process_cannot_write_is_the_commands_error(tmp_path):
     taken.write_text("")  # a file where the run dir should be: no file can go into it
     ahead = FilesAhead()
     try:
-        ahead.begin(taken, dict(name="tape", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER)
+        ahead.begin(taken, dict(name="tape", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER, ANIMATION, FRAMES, 3)
         with pytest.raises(OSError) as error:
-            ahead.finish(torch.rand(3, get_brush("tape").d), ANIMATION, FRAMES, torch.rand(3, *ASPECT))
+            ahead.finish(torch.rand(3, get_brush("tape").d), torch.rand(3, *ASPECT))
     finally:
         ahead.close()
     assert error.value.errno == errno.ENOTDIR and str(taken) in str(error.value.filename)
@@ -119,3 +124,57 @@ def test_a_painting_whose_files_were_written_ahead_has_those_files_and_scores(tm
     scores = made_at_once(tmp_path / "here", painted.brush, painted.strokes, photo)
     assert {key: metrics[key] for key in scores} == scores
     same_files(run, tmp_path / "here")
+
+
+def test_the_process_says_when_it_is_at_work_and_when_it_is_done(tmp_path):
+    ahead = FilesAhead()
+    try:
+        assert ahead.working()  # starting: its imports
+        waited = time.monotonic()
+        while ahead.working():
+            assert time.monotonic() - waited < 60
+            time.sleep(0.01)
+        ahead.begin(tmp_path, dict(name="tape", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER, ANIMATION,
+                    FRAMES, 30)
+        ahead.add(strokes_of(get_brush("tape")))
+        assert ahead.working()
+        while ahead.working():
+            assert time.monotonic() - waited < 60
+            time.sleep(0.01)
+        ahead.process.kill()
+        ahead.process.wait()
+        ahead.add(strokes_of(get_brush("tape")))
+        assert not ahead.working()  # it has ended: the painter need not leave it a core
+    finally:
+        ahead.close()
+
+
+def _files_process_of(command: int) -> bool:
+    """Whether a process writing files ahead for the process ``command`` runs (Linux's /proc)."""
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            words = cmdline.read_bytes().split(b"\0")  # python -m nsp.painter.ahead COMMAND FD
+            if b"nsp.painter.ahead" in words and words[words.index(b"nsp.painter.ahead") + 1] == str(command).encode():
+                return True
+        except OSError:  # ended while looked at
+            pass
+    return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/cmdline").exists(), reason="finds processes in Linux's /proc")
+def test_ctrl_c_while_a_painting_writes_ahead_keeps_what_was_painted_and_ends_the_files_process(tmp_path):
+    run = tmp_path / "run"
+    painting = subprocess.Popen([sys.executable, "-m", "nsp.paint", "strokes=300", "work_size=64", "render_size=128",
+                                 "progress=false", f"hydra.run.dir={run}"], stderr=subprocess.PIPE, text=True)
+    waited = time.monotonic()
+    while not any(b"canvas" in event.read_bytes() for event in run.glob("events.out.tfevents.*")):  # a level is done
+        assert painting.poll() is None and time.monotonic() - waited < 120
+        time.sleep(0.02)
+    assert _files_process_of(painting.pid)
+    painting.send_signal(signal.SIGINT)
+    _, err = painting.communicate(timeout=60)
+    assert painting.returncode == INTERRUPTED, err
+    assert f"interrupted: strokes.json and final.png of what was painted in {run}" in err
+    assert 0 < len(load_strokes(run / "strokes.json").strokes) < 300
+    assert not (run / "metrics.json").exists() and not list(run.glob(".*.tmp*"))
+    assert not _files_process_of(painting.pid)

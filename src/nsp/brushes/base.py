@@ -134,11 +134,11 @@ class Brush:
         ``height``×``width`` canvas."""
         raise NotImplementedError
 
-    def svg_elements(self, strokes: np.ndarray, height: int, width: int) -> Iterator[tuple[str, str]]:
-        """:meth:`svg` of each stroke (N, d), in order (a brush may make them together). A brush whose
-        paint has no vector form (``svg_painted``) has none: its SVG holds each stroke's paint as an
-        image (:func:`nsp.brushes.svg.image_element`)."""
-        for index, p in enumerate(strokes):
+    def svg_elements(self, strokes: np.ndarray, height: int, width: int, first: int = 0) -> Iterator[tuple[str, str]]:
+        """:meth:`svg` of each stroke (N, d), numbers ``first``, … of the painting, in order (a brush
+        may make them together). A brush whose paint has no vector form (``svg_painted``) has none:
+        its SVG holds each stroke's paint as an image (:func:`nsp.brushes.svg.image_element`)."""
+        for index, p in enumerate(strokes, first):
             yield self.svg(index, p, height, width)
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple["Brush", np.ndarray]:

@@ -38,27 +38,71 @@ def write_gif(
     path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
     frames: int | None = GIF_FRAMES, seconds: float = 4.0, compile: bool | None = None,
 ) -> None:
-    """An animation of the strokes (N, d) appearing in order: the empty canvas, then a frame at
-    each of :func:`frame_ends` (at most ``frames`` after the first, the same strokes each; None:
-    one a stroke), over about ``seconds``, the last held a second. Every frame maps to one shared
+    """An animation of the strokes (N, d) appearing in order (:class:`Animation`), made at once."""
+    animation = Animation(brush, len(strokes), height, width, background, frames, compile, strokes.device)
+    animation.add(strokes)
+    animation.write(path, strokes, seconds)
+
+
+class Animation:
+    """The frames of an animation of a painting's strokes appearing in order, made as the strokes
+    come: the empty canvas, then a frame at each of :func:`frame_ends` (at most ``frames`` after the
+    first, the same strokes each; None: one a stroke). :meth:`write` maps every frame to one shared
     palette, without dithering: nothing flickers, and pixels no stroke touched stay the same bytes,
-    which keeps the file small."""
-    palette = gif_palette(brush, strokes, height, width, background)
-    color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)[:, None, None]
-    canvas = TiledCanvas(color.expand(3, height, width))
-    compile = pays(brush, strokes, height, width) if compile is None else compile
-    ends = frame_ends(len(strokes), frames)
-    images = [_indexed(canvas.image(), palette)]  # each frame kept as a palette image only (1 byte a pixel)
-    with torch.no_grad():
-        for start, end in zip(ends[:-1], canvas.paint_until(brush, strokes, ends[1:], compile=compile)):
+    which keeps the file small.
+
+    Args:
+        brush, background: the painting's.
+        strokes: how many it has.
+        height, width: the animation's size in pixels.
+        compile: shade on the compiled path; None: where it is expected to finish sooner
+            (:func:`~nsp.engine.fused.pays`).
+        device: where the strokes are.
+    """
+
+    def __init__(self, brush: Brush, strokes: int, height: int, width: int, background: str = "white",
+                 frames: int | None = GIF_FRAMES, compile: bool | None = None, device: torch.device | str = "cpu"):
+        self.brush, self.height, self.width, self.background, self.compile = brush, height, width, background, compile
+        self.ends = frame_ends(strokes, frames)
+        color = torch.tensor(parse_color(background), device=device)[:, None, None]
+        self.canvas = TiledCanvas(color.expand(3, height, width))
+        # each frame: the left and top of the pixels its strokes touched, and those pixels (h, w, 3), or None for none
+        self.frames: list[tuple[int, int, np.ndarray | None]] = [(0, 0, to_uint8(self.canvas.image()))]
+        self.count, self.since = 0, []  # strokes painted; those since the last frame
+
+    def add(self, strokes: Tensor) -> None:
+        """Paint the next ``strokes`` (n, d) of the painting, keeping the frames they end."""
+        first, count = self.count, len(strokes)
+        if not count:
+            return
+        stops = [end - first for end in self.ends if first < end <= first + count]
+        compile = pays(self.brush, strokes, self.height, self.width) if self.compile is None else self.compile
+        done = 0
+        with torch.no_grad():
+            for stop in self.canvas.paint_until(self.brush, strokes, stops if stops[-1:] == [count] else stops + [count],
+                                                compile=compile, first=first):
+                self.since.append(strokes[done:stop])
+                done = stop
+                if first + stop in self.ends:
+                    left, top, right, bottom = _touched(self.brush, torch.cat(self.since), self.height, self.width)
+                    self.since = []
+                    pixels = to_uint8(self.canvas.image(top, bottom, left, right)) if right > left and bottom > top else None
+                    self.frames.append((left, top, pixels))
+        self.count += count
+
+    def write(self, path: str | Path, strokes: Tensor, seconds: float = 4.0) -> None:
+        """Save the frames of all the ``strokes`` (N, d), every one added, as a GIF over about
+        ``seconds``, the last frame held a second."""
+        palette = gif_palette(self.brush, strokes, self.height, self.width, self.background)
+        images = [_indexed(self.frames[0][2], palette)]  # each frame kept as a palette image only (1 byte a pixel)
+        for left, top, pixels in self.frames[1:]:
             images.append(images[-1].copy())
-            left, top, right, bottom = _touched(brush, strokes[start:end], height, width)
-            if right > left and bottom > top:  # only the pixels the frame's strokes touched are mapped again
-                images[-1].paste(_indexed(canvas.image(top, bottom, left, right), palette), (left, top))
-    step = max(2, round(100 * seconds / max(len(images) - 1, 1))) * 10  # ms: GIF counts in tens; players slow faster frames
-    with atomic_path(path) as temporary:
-        images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
-                       duration=[step] * (len(images) - 1) + [1000], loop=0)
+            if pixels is not None:  # only the pixels the frame's strokes touched are mapped again
+                images[-1].paste(_indexed(pixels, palette), (left, top))
+        step = max(2, round(100 * seconds / max(len(images) - 1, 1))) * 10  # ms: GIF counts in tens; players slow faster frames
+        with atomic_path(path) as temporary:
+            images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
+                           duration=[step] * (len(images) - 1) + [1000], loop=0)
 
 
 def frame_ends(strokes: int, frames: int | None = GIF_FRAMES) -> list[int]:
@@ -94,9 +138,9 @@ def _touched(brush: Brush, strokes: Tensor, height: int, width: int, margin: int
     return left, top, right, bottom
 
 
-def _indexed(image: Tensor, palette: Image.Image) -> Image.Image:
-    """(3, H, W) in [0, 1] as a palette image of ``palette``'s colours, each pixel its nearest."""
-    return Image.fromarray(to_uint8(image)).quantize(palette=palette, dither=Image.Dither.NONE)
+def _indexed(pixels: np.ndarray, palette: Image.Image) -> Image.Image:
+    """(H, W, 3) uint8 as a palette image of ``palette``'s colours, each pixel its nearest."""
+    return Image.fromarray(pixels).quantize(palette=palette, dither=Image.Dither.NONE)
 
 
 def write_svg(

@@ -7,8 +7,8 @@ makes oil's SVG images, :class:`~nsp.painter.outputs.PaintingFiles`), so that on
 is done only its strokes, the GIF and the encoding are left. The files are those
 :func:`~nsp.painter.outputs.write_files` would write. This module's importer's half imports no
 torch; the process runs ``python -m nsp.painter.ahead`` and takes pickled messages on its stdin:
-``("begin", out, brush, aspect, background, render_size)``, ``("add", strokes)`` a level, and
-``("finish", strokes, animation_size, frames, photo)``, to which it answers with the scores.
+``("begin", out, brush, …)`` (:class:`~nsp.painter.outputs.PaintingFiles`' settings), ``("add",
+strokes)`` a level, and ``("finish", strokes, photo)``, to which it answers with the scores.
 """
 from __future__ import annotations
 
@@ -31,14 +31,29 @@ PR_SET_PDEATHSIG = 1  # prctl's option: the signal a process gets when its paren
 
 class FilesAhead:
     """The command's end of the process: :meth:`begin`, :meth:`add` as levels finish, then
-    :meth:`finish`; :meth:`close` ends the process, done or not (an interrupted painting)."""
+    :meth:`finish`; :meth:`close` ends the process, done or not (an interrupted painting).
+    :meth:`working` tells whether it is busy, so the painter may take both cores while it is not."""
 
     def __init__(self):
         self.errors = tempfile.TemporaryFile()  # what the process says on stderr, told if it fails
-        self.process = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid())], stdin=subprocess.PIPE,
-                                        stdout=subprocess.PIPE, stderr=self.errors)
+        self.done, done = os.pipe()  # a byte from the process for its start (its imports), and for each add done
+        self.process = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), str(done)], stdin=subprocess.PIPE,
+                                        stdout=subprocess.PIPE, stderr=self.errors, pass_fds=(done,))
+        os.close(done)
+        os.set_blocking(self.done, False)
+        self.pending = 1  # its start
         self.outbox: queue.SimpleQueue = queue.SimpleQueue()
         threading.Thread(target=self._send, daemon=True).start()
+
+    def working(self) -> bool:
+        """Whether the process is still at work on what it was given: its start or strokes (not
+        when it has ended)."""
+        try:
+            read = os.read(self.done, 64)
+        except BlockingIOError:  # nothing new
+            return self.pending > 0
+        self.pending = self.pending - len(read) if read else 0  # b"": it has ended
+        return self.pending > 0
 
     def _send(self) -> None:
         """Pipe the messages to the process, on a thread of its own: the painter never waits on a full pipe."""
@@ -47,24 +62,26 @@ class FilesAhead:
                 pickle.dump(message, self.process.stdin, protocol=pickle.HIGHEST_PROTOCOL)
                 self.process.stdin.flush()
             self.process.stdin.close()
-        except OSError:  # the process has ended: finish tells
+        except (OSError, ValueError):  # the process has ended (finish tells), or was closed
             pass
 
-    def begin(self, out: Path, brush: dict[str, Any], aspect: tuple[int, int], background: str, render_size: int) -> None:
+    def begin(self, out: Path, brush: dict[str, Any], aspect: tuple[int, int], background: str, render_size: int,
+              animation_size: int, frames: int | None, strokes: int) -> None:
         """The painting's files go to ``out``, of the brush ``get_brush(**brush)`` (see
         :class:`~nsp.painter.outputs.PaintingFiles` for the rest)."""
-        self.outbox.put(("begin", str(out), brush, tuple(aspect), background, render_size))
+        self.outbox.put(("begin", str(out), brush, tuple(aspect), background, render_size, animation_size, frames, strokes))
 
     def add(self, strokes) -> None:
         """The painting's next strokes (n, d), a finished level's."""
+        self.pending += 1
         self.outbox.put(("add", strokes.detach().cpu().numpy()))
 
-    def finish(self, strokes, animation_size: int, frames: int | None, photo) -> dict[str, float] | None:
+    def finish(self, strokes, photo) -> dict[str, float] | None:
         """Write the files of all the ``strokes`` (N, d) (:meth:`PaintingFiles.finish
         <nsp.painter.outputs.PaintingFiles.finish>`); their scores against ``photo`` (3, H, W), or
         None where the process failed (a warning tells why; the caller writes the files itself).
         Raises the ``OSError`` a file met (a full disk), as writing it here would have."""
-        self.outbox.put(("finish", strokes.detach().cpu().numpy(), animation_size, frames, photo.detach().cpu().numpy()))
+        self.outbox.put(("finish", strokes.detach().cpu().numpy(), photo.detach().cpu().numpy()))
         self.outbox.put(None)
         try:
             answer = pickle.load(self.process.stdout)  # once every file is written, or one could not be
@@ -81,7 +98,9 @@ class FilesAhead:
         return answer
 
     def close(self) -> None:
-        """End the process (at once if it is still at work) and let go of its pipes."""
+        """End the process (at once if it is still at work) and let go of its pipes; again, nothing."""
+        if self.errors.closed:
+            return
         if self.process.poll() is None:
             self.process.kill()
         self.process.wait()
@@ -91,12 +110,14 @@ class FilesAhead:
             except OSError:  # a flush into the pipe of a killed process
                 pass
         self.errors.close()
+        os.close(self.done)
 
 
 def main() -> None:
     """The process: its messages, in order, until ``finish`` (or the command's end)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the command's: it ends this process once it has kept what it had
     _end_with(int(sys.argv[1]))
+    done = int(sys.argv[2])
     import torch
 
     from nsp.brushes import get_brush
@@ -105,20 +126,22 @@ def main() -> None:
     torch.set_num_threads(1)  # the painter has the other core
     inbox, answers, files = sys.stdin.buffer, os.fdopen(os.dup(1), "wb"), None
     os.dup2(2, 1)  # whatever else writes to stdout goes to stderr, not into the answer
+    os.write(done, b".")  # started
     while True:
         try:
             kind, *args = pickle.load(inbox)
         except EOFError:  # the command ended without asking for the files
             return
         if kind == "begin":
-            out, brush, aspect, background, render_size = args
-            files = PaintingFiles(Path(out), get_brush(**brush), aspect, background, render_size)
+            out, brush, *settings = args
+            files = PaintingFiles(Path(out), get_brush(**brush), *settings)
         elif kind == "add":
             files.add(torch.from_numpy(args[0]))
+            os.write(done, b".")
         else:
-            strokes, animation_size, frames, photo = args
+            strokes, photo = args
             try:
-                answer = files.finish(torch.from_numpy(strokes), animation_size, frames, torch.from_numpy(photo))
+                answer = files.finish(torch.from_numpy(strokes), torch.from_numpy(photo))
             except OSError as error:  # the command's to tell (a full disk): it stops as if it had met it
                 answer = OSError(error.errno, error.strerror, error.filename)
             pickle.dump(answer, answers)

@@ -5,6 +5,7 @@ import time
 from typing import Mapping
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+import torch
 from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
 from torch.utils.tensorboard.summary import hparams
@@ -55,15 +56,22 @@ class TensorBoard(Callback):
 
 class SendLevels(Callback):
     """Each finished level's strokes to the process writing the painting's files ahead
-    (:class:`~nsp.painter.ahead.FilesAhead`)."""
+    (:class:`~nsp.painter.ahead.FilesAhead`); the painter on one thread while that process works
+    (beside it, a second would wait on it at every parallel op), on ``threads`` otherwise."""
 
-    def __init__(self, files: FilesAhead):
-        self.files, self.sent = files, 0
+    def __init__(self, files: FilesAhead, threads: int):
+        self.files, self.threads, self.sent = files, threads, 0
+
+    def on_step(self, painter: Painter, step: int, losses: dict[str, float]) -> None:
+        threads = 1 if self.files.working() else self.threads
+        if torch.get_num_threads() != threads:
+            torch.set_num_threads(threads)
 
     def on_level(self, painter: Painter, level: int, canvas: Tensor) -> None:
         strokes = painter.strokes()
         self.files.add(strokes[self.sent:])
         self.sent = len(strokes)
+        torch.set_num_threads(1)
 
 
 class ProgressBar(Callback):

@@ -13,7 +13,7 @@ from nsp.engine import paint_canvas
 from nsp.engine.canvas import TiledCanvas
 from nsp.engine.fused import pays
 from nsp.images import long_side, psnr, resize, ssim
-from nsp.io.export import painted_elements, write_gif, write_png, write_svg
+from nsp.io.export import Animation, painted_elements, write_png, write_svg
 from nsp.io.strokes import StrokeFile, save_strokes
 
 SCORE_SIZE = 256  # long side at which psnr and ssim compare the painting with the photo
@@ -31,50 +31,59 @@ def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tupl
 
 class PaintingFiles:
     """A painting's files, made as its strokes come, in painting order: :meth:`add` paints them
-    onto final.png's canvas (and makes the SVG's images of a brush whose paint has no vector form),
-    :meth:`finish` writes every file. All at once (:func:`write_files`), or a level at a time while
-    the painting goes on (:mod:`nsp.painter.ahead`), the files are the same.
+    onto final.png's canvas and the GIF's frames and makes their SVG elements (images, for a brush
+    whose paint has no vector form), :meth:`finish` writes every file. All at once (:func:`write_files`), or a
+    level at a time while the painting goes on (:mod:`nsp.painter.ahead`), the files are the same.
 
     Args:
         out: the run dir.
         brush, background: the painting's.
         aspect: (height, width) of the canvas painted; final.png and painting.svg have a long side
-            of ``render_size``.
+            of ``render_size``, animation.gif of ``animation_size``.
+        frames: animation.gif's most frames after the empty canvas (None: one a stroke).
+        strokes: how many the painting has.
         workers: threads (of one torch thread each) the work is shared on.
-        device: where the strokes are, and the canvas is painted.
+        device: where the strokes are, and the canvases are painted.
     """
 
     def __init__(self, out: Path, brush: Brush, aspect: tuple[int, int], background: str, render_size: int,
-                 workers: int = 1, device: torch.device | str = "cpu"):
-        self.out, self.brush, self.aspect, self.background, self.workers = out, brush, aspect, background, workers
+                 animation_size: int, frames: int | None, strokes: int, workers: int = 1, device: torch.device | str = "cpu"):
+        self.out, self.brush, self.background, self.workers = out, brush, background, workers
         self.height, self.width = long_side(*aspect, render_size)
         color = torch.tensor(parse_color(background), device=device)[:, None, None]
         self.canvas = TiledCanvas(color.expand(3, self.height, self.width))
-        self.elements: list[tuple[str, str]] | None = [] if brush.svg_painted else None  # else made by finish
+        self.animation = Animation(brush, strokes, *long_side(*aspect, animation_size), background, frames, device=device)
+        self.elements: list[tuple[str, str]] = []  # painting.svg's, of the strokes painted
         self.count = 0  # strokes painted
 
     def add(self, strokes: Tensor) -> None:
-        """Paint the next ``strokes`` (n, d) of the painting onto final.png's canvas."""
-        images = None if self.elements is None else []
+        """Paint the painting's next ``strokes`` (n, d)."""
+        self._paint(strokes)
+        self.animation.add(strokes)
+
+    def _paint(self, strokes: Tensor) -> None:
+        """Paint the next ``strokes`` (n, d) onto final.png's canvas, and make their SVG elements."""
+        images = [] if self.brush.svg_painted else None
         with torch.no_grad():
             self.canvas.paint(self.brush, strokes, compile=pays(self.brush, strokes, self.height, self.width),
                               first=self.count, images=images)
-        if images is not None:
+        if images is None:
+            self.elements += self.brush.svg_elements(strokes.detach().cpu().double().numpy(), self.height, self.width,
+                                                     self.count)
+        else:
             self.elements += painted_elements(images, self.workers)
         self.count += len(strokes)
 
-    def finish(self, strokes: Tensor, animation_size: int, frames: int | None, photo: Tensor) -> dict[str, float]:
-        """Write ``strokes.json``, ``final.png`` and ``painting.svg`` of all the ``strokes`` (N, d),
-        those not yet added painted first, and ``animation.gif`` (strokes in order, long side
-        ``animation_size``, at most ``frames`` frames after the empty canvas; None: one a stroke)
-        beside them; returns final.png's :func:`similarity` to ``photo``."""
+    def finish(self, strokes: Tensor, photo: Tensor) -> dict[str, float]:
+        """Write ``strokes.json``, ``final.png``, ``painting.svg`` and, beside them, ``animation.gif``
+        of all the painting's ``strokes`` (N, d), those not yet added painted first; returns final.png's
+        :func:`similarity` to ``photo``."""
         threads = torch.get_num_threads()
         torch.set_num_threads(1)  # a file a core: each file's ops are too small to split well
         try:
             with ThreadPoolExecutor(1) as pool:
-                gif = pool.submit(write_gif, self.out / "animation.gif", self.brush, strokes,
-                                  *long_side(*self.aspect, animation_size), self.background, frames=frames)
-                self.add(strokes[self.count:])
+                gif = pool.submit(self._write_gif, strokes)
+                self._paint(strokes[self.count:])
                 save_strokes(self.out / "strokes.json", StrokeFile(self.brush, strokes, self.height, self.width, self.background))
                 final = self.canvas.image()
                 write_png(self.out / "final.png", final)
@@ -86,13 +95,20 @@ class PaintingFiles:
         finally:
             torch.set_num_threads(threads)
 
+    def _write_gif(self, strokes: Tensor) -> None:
+        if len(strokes) != self.animation.ends[-1]:
+            raise ValueError(f"{len(strokes)} strokes, where the painting was to have {self.animation.ends[-1]}")
+        self.animation.add(strokes[self.animation.count:])
+        self.animation.write(self.out / "animation.gif", strokes)
+
 
 def write_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str, render_size: int,
                 animation_size: int, frames: int | None, photo: Tensor, workers: int) -> dict[str, float]:
     """Write every file of a painting of ``strokes`` (N, d) at once (:class:`PaintingFiles`, on
     ``workers`` threads); returns final.png's :func:`similarity` to ``photo``."""
-    files = PaintingFiles(out, brush, aspect, background, render_size, workers, strokes.device)
-    return files.finish(strokes, animation_size, frames, photo)
+    files = PaintingFiles(out, brush, aspect, background, render_size, animation_size, frames, len(strokes), workers,
+                          strokes.device)
+    return files.finish(strokes, photo)
 
 
 def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:

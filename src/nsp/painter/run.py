@@ -176,8 +176,9 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
     if ahead is not None and image is not None:  # the styled strokes are the painting's: its files are written here
         ahead.close()
         ahead = None
-    if cfg.threads or ahead is not None:  # beside the files' process, a second thread would wait on it
-        torch.set_num_threads(cfg.threads or 1)
+    if cfg.threads:
+        torch.set_num_threads(cfg.threads)
+    threads = torch.get_num_threads()
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
@@ -189,8 +190,9 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
             painter.callbacks += [board, bar]
             if ahead is not None:
                 ahead.begin(out, dict(name=cfg.brush.name, texture=cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto),
-                            *shared[1:])
-                painter.callbacks.append(SendLevels(ahead))
+                            *shared[1:], cfg.animation_size, cfg.animation_frames, cfg.strokes)
+                painter.callbacks.append(SendLevels(ahead, threads))
+                torch.set_num_threads(1)  # till the files' process has started (SendLevels)
             try:
                 faces = find_faces(target) if round(painter.schedule.face_share * cfg.strokes) else []
                 strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
@@ -201,6 +203,7 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
                     write_strokes_and_png(out, painter.strokes(), *shared)
                 raise
         painting = bar.seconds
+        torch.set_num_threads(threads)
         on_faces = f" ({counted(len(faces), 'face')} given a level of {'its' if len(faces) == 1 else 'their'} own)" if faces else ""
         phases.append(f"painted {counted(len(strokes), painter.brush.name + ' stroke')}{on_faces} in {painting:.1f} s")
         try:  # from here to the last file, an interruption or a failure still leaves what was painted
@@ -212,7 +215,7 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
             frames = len(frame_ends(len(strokes), cfg.animation_frames))
             log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
             files = time.perf_counter()
-            scores = None if ahead is None else ahead.finish(strokes, cfg.animation_size, cfg.animation_frames, photo)
+            scores = None if ahead is None else ahead.finish(strokes, photo)
             if scores is None:
                 scores = write_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames, photo,
                                      workers=min(3, torch.get_num_threads()))
