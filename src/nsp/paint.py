@@ -64,7 +64,12 @@ def writes_ahead(cfg: DictConfig) -> bool:
     on the CPU of a machine of two cores or more, writes its files ahead (:mod:`nsp.painter.ahead`):
     not styled, not a sweep's job (a core each)."""
     return (cfg.task is None and cfg.style.image is None and cfg.threads is None and str(cfg.device) == "cpu"
-            and cfg.strokes >= AHEAD_STROKES and not in_sweep() and len(os.sched_getaffinity(0)) > 1)
+            and cfg.strokes >= AHEAD_STROKES and not in_sweep() and os.name == "posix" and _cores() > 1)
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 def schema() -> object:

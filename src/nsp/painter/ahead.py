@@ -1,14 +1,17 @@
 """A painting's files made ahead, in a process of their own, while it is painted.
 
 ``python -m nsp.paint`` on a machine of two cores or more starts this process before it imports
-torch, so the two imports run side by side. The painter then takes one core and this process the
-other: each finished level's strokes come to it and it paints them onto final.png's canvas (and
-makes oil's SVG images, :class:`~nsp.painter.outputs.PaintingFiles`), so that once the last level
-is done only its strokes, the GIF and the encoding are left. The files are those
-:func:`~nsp.painter.outputs.write_files` would write. This module's importer's half imports no
-torch; the process runs ``python -m nsp.painter.ahead`` and takes pickled messages on its stdin:
-``("begin", out, brush, …)`` (:class:`~nsp.painter.outputs.PaintingFiles`' settings), ``("add",
-strokes)`` a level, and ``("finish", strokes, photo)``, to which it answers with the scores.
+torch, so the two imports run side by side. Each finished level's strokes then come to it, and it
+paints them into final.png's canvas, the GIF's frames and the SVG's elements
+(:class:`~nsp.painter.outputs.PaintingFiles`) while the painter paints the next level: on one
+thread while this process works, on all of torch's while it is idle
+(:class:`~nsp.painter.callbacks.SendLevels`). Once the last level is done, only its strokes and the
+encoding are left. The files are those :func:`~nsp.painter.outputs.write_files` would write.
+
+The command's half imports no torch. The process runs ``python -m nsp.painter.ahead`` and takes
+pickled messages on its stdin: ``("begin", out, brush, …)`` (:class:`~nsp.painter.outputs.PaintingFiles`'
+settings), ``("add", strokes)`` a level, and ``("finish", strokes, photo)``, which it answers on its
+stdout with the scores; it writes a byte to another pipe once started and after each ``add``.
 """
 from __future__ import annotations
 
