@@ -178,3 +178,19 @@ def test_ctrl_c_while_a_painting_writes_ahead_keeps_what_was_painted_and_ends_th
     assert 0 < len(load_strokes(run / "strokes.json").strokes) < 300
     assert not (run / "metrics.json").exists() and not list(run.glob(".*.tmp*"))
     assert not _files_process_of(painting.pid)
+
+
+def test_a_painting_that_cannot_start_the_files_process_writes_them_itself(tmp_path, capsys, monkeypatch):
+    from test_catalogue import run_cli
+
+    def refused(*args, **kwargs):
+        raise OSError(errno.EAGAIN, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(subprocess, "Popen", refused)
+    run = tmp_path / "run"
+    code, err = run_cli("nsp.paint", [f"strokes={AHEAD_STROKES}", "work_size=32", f"render_size={RENDER}",
+                                      f"animation_size={ANIMATION}", "progress=false", "schedule.steps_per_stroke=1",
+                                      "schedule.polish=0", f"hydra.run.dir={run}"], capsys, monkeypatch)
+    assert code == 0, err
+    assert "no process to write the files in while painting (Resource temporarily unavailable)" in (run / "paint.log").read_text()
+    assert all((run / name).is_file() for name in FILES)

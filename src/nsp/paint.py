@@ -31,7 +31,12 @@ def main(cfg: DictConfig) -> float | None:
     if cfg.task is None and not kept(cfg):  # the first line, before the work's modules load (seconds)
         what = f"{cfg.strokes} strokes of the checkpoint's brush" if follows_checkpoint(cfg, named) else counted(cfg.strokes, cfg.brush.name + " stroke")
         log.info(f"painting {cfg.image} with {what}…")
-    ahead = FilesAhead() if writes_ahead(cfg) else None  # its import of torch beside this one's
+    try:
+        ahead = FilesAhead() if writes_ahead(cfg) else None  # its import of torch beside this one's
+    except OSError as error:  # no process to be had (a limit on processes, on memory): the files come after
+        log.warning(f"no process to write the files in while painting ({error.strerror or error}); "
+                    "they are written once it is done")
+        ahead = None
     import torch
     from hydra.utils import instantiate
 
