@@ -347,6 +347,14 @@ def test_openmp_threads_spin_briefly_then_sleep_unless_the_user_chose_a_policy(g
     assert shown == expected
 
 
+@pytest.mark.parametrize("given, expected", [({}, "AUTO,STRICT"), ({"MKL_CBWR": "COMPATIBLE"}, "COMPATIBLE")])
+def test_matrix_products_sum_in_one_order_whatever_the_load_unless_the_user_chose(given, expected):
+    env = {key: value for key, value in os.environ.items() if key != "MKL_CBWR"}
+    shown = subprocess.run([sys.executable, "-c", "import os, nsp; print(os.environ['MKL_CBWR'])"], env=env | given,
+                           capture_output=True, text=True, check=True).stdout.strip()
+    assert shown == expected
+
+
 @pytest.mark.parametrize("name", ["oilpaint", "tape"])
 def test_stroke_images_composited_in_order_are_the_painting(name):
     """What an SVG of stroke images holds (paint_canvas's ``images``): each stroke alone on the

@@ -10,6 +10,11 @@ import os
 if "OMP_WAIT_POLICY" not in os.environ:
     os.environ["OMP_WAIT_POLICY"] = "PASSIVE"  # what other OpenMP runtimes honour
     os.environ.setdefault("GOMP_SPINCOUNT", "10000")  # libgomp: overrides PASSIVE's 0
+# MKL (torch's matrix products on x86) sums in an order that depends on how many threads it finds
+# free, so a styled painting came out different on a busy machine (a sweep's jobs side by side) than
+# on an idle one. Its strict mode sums in one order: the same strokes either way (the painter's are
+# the same bytes in both modes, the demo's and 2000 watercolor strokes'; docs/painting.md).
+os.environ.setdefault("MKL_CBWR", "AUTO,STRICT")
 
 __version__ = "0.1.0"
 

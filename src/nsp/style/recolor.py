@@ -129,25 +129,25 @@ def recolor(brush: Brush, strokes: Tensor, photo: Tensor, style: Tensor, weight:
     height, width = photo.shape[1:]
     with torch.no_grad():
         plain = paint_canvas(brush, strokes, height, width, background)
-    shared = shared_map(brush, strokes, plain, photo, style, weight, background, seed, settings, tick)
+    bounds = Bounds(plain, photo, weight, settings, seed) if weight > 0 else None
+    shared = shared_map(brush, strokes, plain, photo, style, weight, background, seed, settings, tick, bounds)
     x, canvas = shared.strokes(brush, strokes), shared(torch.tensor(parse_color(background)))
-    if weight > 0 and settings.stroke_steps:
-        bounds = Bounds(plain, photo, weight, settings, seed)
+    if bounds is not None and settings.stroke_steps:
         x, canvas = refine_strokes(brush, x, canvas, style, Objective(plain, style, bounds, seed, tick), settings)
     return x, hex_color(canvas)
 
 
 def shared_map(brush: Brush, strokes: Tensor, plain: Tensor, photo: Tensor, style: Tensor, weight: float,
                background: str, seed: int, settings: ColorSettings = ColorSettings(),
-               tick: Callable[[], None] | None = None) -> Recoloring:
+               tick: Callable[[], None] | None = None, bounds: Bounds | None = None) -> Recoloring:
     """The map shared by every stroke of ``strokes`` (N, d) and by the canvas colour: fitted on
     the ``plain`` painting's pixels (3, H, W, of ``photo`` on ``background``), then the largest
-    share of the way from its start that keeps the :class:`Bounds` on the painted strokes. ``weight``
-    0: the start alone."""
+    share of the way from its start that keeps the :class:`Bounds` on the painted strokes
+    (``bounds``, where the caller has made them). ``weight`` 0: the start alone."""
     start = Recoloring.fit(plain, style)
     if weight == 0:
         return start
-    bounds = Bounds(plain, photo, weight, settings, seed)
+    bounds = Bounds(plain, photo, weight, settings, seed) if bounds is None else bounds
     objective = Objective(plain, style, bounds, seed, tick)
     fitted = start.refine(plain, objective, settings)
     height, width = plain.shape[1:]
