@@ -163,8 +163,8 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
     """Paint ``cfg.image`` (or ``photo``, as :func:`prepare` takes it); write the painting's files into
     ``cfg.output_dir``; return the metrics (``seconds``: the whole run, the checks and files included).
     Unless ``brush_named``, a trained renderer paints with its checkpoint's brush (:func:`follows_checkpoint`).
-    ``ahead``: a process to write the files in while the painting goes on, the painter then on one
-    core (:mod:`nsp.painter.ahead`); closed here where the strokes are styled after it.
+    ``ahead``: a process to write the files in while the painting goes on, the painter on one thread
+    while it works (:mod:`nsp.painter.ahead`); closed here where the strokes are styled after it.
 
     Interrupted (Ctrl-C, SIGTERM) or failing part-way, it still writes ``strokes.json`` and
     ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises.
