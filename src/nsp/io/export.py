@@ -75,7 +75,8 @@ class Animation:
         first, count = self.count, len(strokes)
         if not count:
             return
-        stops = [end - first for end in self.ends if first < end <= first + count]
+        stops = [end - first for end in self.ends if first < end <= first + count]  # this part's frames
+        frames = set(stops)
         compile = pays(self.brush, strokes, self.height, self.width) if self.compile is None else self.compile
         done = 0
         with torch.no_grad():
@@ -83,7 +84,7 @@ class Animation:
                                                 compile=compile, first=first):
                 self.since.append(strokes[done:stop])
                 done = stop
-                if first + stop in self.ends:
+                if stop in frames:
                     left, top, right, bottom = _touched(self.brush, torch.cat(self.since), self.height, self.width)
                     self.since = []
                     pixels = to_uint8(self.canvas.image(top, bottom, left, right)) if right > left and bottom > top else None
