@@ -1,5 +1,6 @@
 """A painting's files made a level at a time (``PaintingFiles``), and in a process of their own while
-it is painted (``nsp.painter.ahead``): the very files and scores of ``write_files``, and errors told."""
+it is painted (``nsp.painter.ahead``): the very files and scores of ``write_files``, the faces the painter
+would find, and errors told."""
 import errno
 import json
 import logging
@@ -15,10 +16,11 @@ from hydra import compose, initialize_config_dir
 
 from nsp.brushes import get_brush
 from nsp.cli import INTERRUPTED
-from nsp.images import load_image
+from nsp.images import load_image, resize
 from nsp.io.strokes import load_strokes
 from nsp.paint import AHEAD_STROKES, writes_ahead
 from nsp.painter.ahead import FilesAhead
+from nsp.painter.faces import find_faces
 from nsp.painter.outputs import PaintingFiles, write_files
 
 FILES = ("strokes.json", "final.png", "painting.svg", "animation.gif")
@@ -36,7 +38,7 @@ def strokes_of(brush, count: int = 30):
 
 def made_at_once(out: Path, brush, strokes, photo) -> dict:
     out.mkdir()
-    return write_files(out, strokes, brush, tuple(photo.shape[-2:]), "white", RENDER, ANIMATION, FRAMES, photo, workers=2)
+    return write_files(out, strokes, brush, photo, "white", RENDER, ANIMATION, FRAMES, workers=2)
 
 
 def same_files(a: Path, b: Path) -> None:
@@ -49,11 +51,11 @@ def test_files_made_a_level_at_a_time_are_those_made_at_once(name, tmp_path):
     brush, photo = get_brush(name), torch.rand(3, *ASPECT)
     strokes = strokes_of(brush)
     scores = made_at_once(tmp_path / "once", brush, strokes, photo)
-    files = PaintingFiles(tmp_path / "levels", brush, ASPECT, "white", RENDER, ANIMATION, FRAMES, len(strokes))
+    files = PaintingFiles(tmp_path / "levels", brush, photo, "white", RENDER, ANIMATION, FRAMES, len(strokes))
     (tmp_path / "levels").mkdir()
     for part in strokes[:22].split([2, 8, 12]):  # the last level's strokes come with finish
         files.add(part)
-    assert files.finish(strokes, photo) == scores
+    assert files.finish(strokes) == scores
     same_files(tmp_path / "once", tmp_path / "levels")
 
 
@@ -64,11 +66,11 @@ def test_files_written_ahead_in_their_own_process_are_those_written_here(tmp_pat
     (tmp_path / "ahead").mkdir()
     ahead = FilesAhead()
     try:
-        ahead.begin(tmp_path / "ahead", dict(name="oilpaint", texture=None, seed=3, impasto=True), ASPECT, "white", RENDER,
+        ahead.begin(tmp_path / "ahead", dict(name="oilpaint", texture=None, seed=3, impasto=True), photo, "white", RENDER,
                     ANIMATION, FRAMES, len(strokes))
         for part in strokes.split([10, 20]):
             ahead.add(part)
-        assert ahead.finish(strokes, photo) == scores
+        assert ahead.finish(strokes) == scores
     finally:
         ahead.close()
     assert ahead.process.returncode is not None  # ended
@@ -78,10 +80,10 @@ def test_files_written_ahead_in_their_own_process_are_those_written_here(tmp_pat
 def test_a_files_process_that_fails_leaves_the_files_to_the_command_saying_why(tmp_path, caplog):
     ahead = FilesAhead()
     try:
-        ahead.begin(tmp_path, dict(name="crayon", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER, ANIMATION,
-                    FRAMES, 3)
+        ahead.begin(tmp_path, dict(name="crayon", texture=None, seed=0, impasto=True), torch.rand(3, *ASPECT), "white",
+                    RENDER, ANIMATION, FRAMES, 3)
         with caplog.at_level(logging.WARNING, "nsp.painter.ahead"):
-            assert ahead.finish(torch.rand(3, 13), torch.rand(3, *ASPECT)) is None
+            assert ahead.finish(torch.rand(3, 13)) is None
     finally:
         ahead.close()
     assert "the process writing the files failed" in caplog.text and "crayon" in caplog.text
@@ -94,9 +96,10 @@ def test_a_file_the_process_cannot_write_is_the_commands_error(tmp_path):
     taken.write_text("")  # a file where the run dir should be: no file can go into it
     ahead = FilesAhead()
     try:
-        ahead.begin(taken, dict(name="tape", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER, ANIMATION, FRAMES, 3)
+        ahead.begin(taken, dict(name="tape", texture=None, seed=0, impasto=True), torch.rand(3, *ASPECT), "white", RENDER,
+                    ANIMATION, FRAMES, 3)
         with pytest.raises(OSError) as error:
-            ahead.finish(torch.rand(3, get_brush("tape").d), torch.rand(3, *ASPECT))
+            ahead.finish(torch.rand(3, get_brush("tape").d))
     finally:
         ahead.close()
     assert error.value.errno == errno.ENOTDIR and str(taken) in str(error.value.filename)
@@ -126,6 +129,27 @@ def test_a_painting_whose_files_were_written_ahead_has_those_files_and_scores(tm
     same_files(run, tmp_path / "here")
 
 
+def test_the_process_finds_the_faces_the_painter_would_find_in_its_target():
+    ahead = FilesAhead(faces=("astronaut", 1024, 256))
+    try:
+        found = ahead.faces()
+        assert ahead.faces() is None  # one answer
+    finally:
+        ahead.close()
+    assert found == find_faces(resize(load_image("astronaut", max_side=1024), 256)) and len(found) == 1
+
+
+def test_faces_the_process_cannot_find_are_left_to_the_command(tmp_path):
+    ahead = FilesAhead(faces=(str(tmp_path / "nope.png"), 1024, 256))
+    try:
+        assert ahead.faces() is None  # the command searches, or tells what is wrong with the image
+        ahead.begin(tmp_path, dict(name="tape", texture=None, seed=0, impasto=True), torch.rand(3, *ASPECT), "white",
+                    RENDER, ANIMATION, FRAMES, 3)
+        assert set(ahead.finish(torch.rand(3, get_brush("tape").d))) == {"psnr", "ssim"}  # and it goes on
+    finally:
+        ahead.close()
+
+
 def test_the_process_says_when_it_is_at_work_and_when_it_is_done(tmp_path):
     ahead = FilesAhead()
     try:
@@ -134,8 +158,8 @@ def test_the_process_says_when_it_is_at_work_and_when_it_is_done(tmp_path):
         while ahead.working():
             assert time.monotonic() - waited < 60
             time.sleep(0.01)
-        ahead.begin(tmp_path, dict(name="tape", texture=None, seed=0, impasto=True), ASPECT, "white", RENDER, ANIMATION,
-                    FRAMES, 30)
+        ahead.begin(tmp_path, dict(name="tape", texture=None, seed=0, impasto=True), torch.rand(3, *ASPECT), "white",
+                    RENDER, ANIMATION, FRAMES, 30)
         ahead.add(strokes_of(get_brush("tape")))
         assert ahead.working()
         while ahead.working():

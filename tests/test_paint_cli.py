@@ -1,4 +1,5 @@
 """``python -m nsp.paint``: the files a painting leaves, what an interruption keeps, and bad input."""
+import io
 import json
 import re
 import subprocess
@@ -43,7 +44,7 @@ def config(*overrides: str):
 
 def test_a_painting_leaves_every_file_valid(photo, tmp_path):
     out = tmp_path / "run"
-    metrics = paint(config(f"image={photo}", "brush=watercolor", f"output_dir={out}", *TINY))
+    metrics = paint(config(f"image={photo}", "brush=watercolor", f"output_dir={out}", *TINY, "schedule.detail_side=64"))
 
     assert Image.open(out / "final.png").size == (96, 64)  # long side render_size, the photo's 3:2 kept
     painting = load_strokes(out / "strokes.json")
@@ -68,6 +69,9 @@ def test_a_painting_leaves_every_file_valid(photo, tmp_path):
     assert set(events.Tags()["images"]) == {"canvas", "target"}
     levels = [e.step for e in events.Scalars("level/psnr")]
     assert [e.step for e in events.Images("canvas")] == levels and levels[-1] == events.Scalars("loss/l1")[-1].step
+    target = events.Images("target")[0]
+    assert {(e.width, e.height) for e in events.Images("canvas")} == {(target.width, target.height)}  # a finer level's too
+    assert {Image.open(io.BytesIO(e.encoded_image_string)).size for e in events.Images("canvas")} == {(48, 32)}
     assert events.Scalars("final/psnr")[-1].value == pytest.approx(metrics["psnr"])
     from tensorboard.plugins.hparams.plugin_data_pb2 import HParamsPluginData
 
@@ -86,7 +90,10 @@ def test_the_total_loss_is_logged_only_beside_two_terms_or_more():
         def add_scalar(self, tag, value, step):
             self.scalars.append(tag)
 
-        def add_image(self, tag, image, step):
+        def _get_file_writer(self):  # where TensorBoard's callback adds its pictures
+            return self
+
+        def add_summary(self, summary, step):
             pass
 
     writer = Writer()

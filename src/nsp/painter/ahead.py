@@ -1,17 +1,19 @@
 """A painting's files made ahead, in a process of their own, while it is painted.
 
 ``python -m nsp.paint`` on a machine of two cores or more starts this process before it imports
-torch, so the two imports run side by side. Each finished level's strokes then come to it, and it
-paints them into final.png's canvas, the GIF's frames and the SVG's elements
-(:class:`~nsp.painter.outputs.PaintingFiles`) while the painter paints the next level: on one
-thread while this process works, on all of torch's while it is idle
+torch, so the two imports run side by side. Once it has torch, it finds the photo's faces
+(:func:`~nsp.painter.faces.find_faces`) while the command builds its painter. Each finished level's
+strokes then come to it, and it paints them into final.png's canvas, the GIF's frames and the SVG's
+elements (:class:`~nsp.painter.outputs.PaintingFiles`) while the painter paints the next level: on
+one thread while this process works, on all of torch's while it is idle
 (:class:`~nsp.painter.callbacks.SendLevels`). Once the last level is done, only its strokes and the
 encoding are left. The files are those :func:`~nsp.painter.outputs.write_files` would write.
 
-The command's half imports no torch. The process runs ``python -m nsp.painter.ahead`` and takes
-pickled messages on its stdin: ``("begin", out, brush, …)`` (:class:`~nsp.painter.outputs.PaintingFiles`'
-settings), ``("add", strokes)`` a level, and ``("finish", strokes, photo)``, which it answers on its
-stdout with the scores; it writes a byte to another pipe once started and after each ``add``.
+The command's half imports no torch. The process runs ``python -m nsp.painter.ahead PID FD [IMAGE
+SIDE WORK_SIZE]`` (the faces to find) and takes pickled messages on its stdin: ``("begin", out,
+brush, …)`` (:class:`~nsp.painter.outputs.PaintingFiles`' settings), ``("add", strokes)`` a level,
+and ``("finish", strokes)``. It answers on its stdout with the faces, then the scores; it
+writes a byte to the pipe ``FD`` once started and after each ``add``.
 """
 from __future__ import annotations
 
@@ -35,16 +37,24 @@ PR_SET_PDEATHSIG = 1  # prctl's option: the signal a process gets when its paren
 class FilesAhead:
     """The command's end of the process: :meth:`begin`, :meth:`add` as levels finish, then
     :meth:`finish`; :meth:`close` ends the process, done or not (an interrupted painting).
-    :meth:`working` tells whether it is busy, so the painter may take both cores while it is not."""
+    :meth:`working` tells whether it is busy, so the painter may take both cores while it is not.
 
-    def __init__(self):
+    Args:
+        faces: (image, side, work_size): first thing, find the faces of ``image`` (a path or a
+            built-in photo's name, read at long side ``side`` and searched at ``work_size``, as the
+            painter's target is made); :meth:`faces` answers. None: no search.
+    """
+
+    def __init__(self, faces: tuple[str, int, int] | None = None):
         self.errors = tempfile.TemporaryFile()  # what the process says on stderr, told if it fails
         self.done, done = os.pipe()  # a byte from the process for its start (its imports), and for each add done
-        self.process = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), str(done)], stdin=subprocess.PIPE,
-                                        stdout=subprocess.PIPE, stderr=self.errors, pass_fds=(done,))
+        self.process = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), str(done),
+                                         *map(str, faces or ())], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                        stderr=self.errors, pass_fds=(done,))
         os.close(done)
         os.set_blocking(self.done, False)
         self.pending = 1  # its start
+        self.searching = faces is not None  # whether the faces' answer is yet to be read
         self.outbox: queue.SimpleQueue = queue.SimpleQueue()
         threading.Thread(target=self._send, daemon=True).start()
 
@@ -68,24 +78,37 @@ class FilesAhead:
         except (OSError, ValueError):  # the process has ended (finish tells), or was closed
             pass
 
-    def begin(self, out: Path, brush: dict[str, Any], aspect: tuple[int, int], background: str, render_size: int,
-              animation_size: int, frames: int | None, strokes: int) -> None:
+    def faces(self) -> list | None:
+        """The faces found (:class:`~nsp.painter.faces.Box` es), once found; None where the search
+        failed or was not asked for (the caller then searches)."""
+        if not self.searching:
+            return None
+        self.searching = False
+        try:
+            return pickle.load(self.process.stdout)
+        except (EOFError, pickle.UnpicklingError):  # the process has ended: finish tells why
+            return None
+
+    def begin(self, out: Path, brush: dict[str, Any], photo, background: str, render_size: int, animation_size: int,
+              frames: int | None, strokes: int) -> None:
         """The painting's files go to ``out``, of the brush ``get_brush(**brush)`` (see
         :class:`~nsp.painter.outputs.PaintingFiles` for the rest)."""
-        self.outbox.put(("begin", str(out), brush, tuple(aspect), background, render_size, animation_size, frames, strokes))
+        self.outbox.put(("begin", str(out), brush, photo.detach().cpu().numpy(), background, render_size, animation_size,
+                         frames, strokes))
 
     def add(self, strokes) -> None:
         """The painting's next strokes (n, d), a finished level's."""
         self.pending += 1
         self.outbox.put(("add", strokes.detach().cpu().numpy()))
 
-    def finish(self, strokes, photo) -> dict[str, float] | None:
+    def finish(self, strokes) -> dict[str, float] | None:
         """Write the files of all the ``strokes`` (N, d) (:meth:`PaintingFiles.finish
-        <nsp.painter.outputs.PaintingFiles.finish>`); their scores against ``photo`` (3, H, W), or
-        None where the process failed (a warning tells why; the caller writes the files itself).
-        Raises the ``OSError`` a file met (a full disk), as writing it here would have."""
-        self.outbox.put(("finish", strokes.detach().cpu().numpy(), photo.detach().cpu().numpy()))
+        <nsp.painter.outputs.PaintingFiles.finish>`); their scores against the photo, or None where
+        the process failed (a warning tells why; the caller writes the files itself). Raises the
+        ``OSError`` a file met (a full disk), as writing it here would have."""
+        self.outbox.put(("finish", strokes.detach().cpu().numpy()))
         self.outbox.put(None)
+        self.faces()  # an answer not read comes first
         try:
             answer = pickle.load(self.process.stdout)  # once every file is written, or one could not be
         except (EOFError, pickle.UnpicklingError):
@@ -123,12 +146,15 @@ def main() -> None:
     done = int(sys.argv[2])
     import torch
 
-    from nsp.brushes import get_brush
-    from nsp.painter.outputs import PaintingFiles
-
     torch.set_num_threads(1)  # the painter has the other core
     inbox, answers, files = sys.stdin.buffer, os.fdopen(os.dup(1), "wb"), None
     os.dup2(2, 1)  # whatever else writes to stdout goes to stderr, not into the answer
+    if len(sys.argv) > 3:  # the faces first, as soon as torch is in: the painter waits on them
+        pickle.dump(_faces(sys.argv[3], int(sys.argv[4]), int(sys.argv[5])), answers)
+        answers.flush()
+    from nsp.brushes import get_brush
+    from nsp.painter.outputs import PaintingFiles
+
     os.write(done, b".")  # started
     while True:
         try:
@@ -136,20 +162,31 @@ def main() -> None:
         except EOFError:  # the command ended without asking for the files
             return
         if kind == "begin":
-            out, brush, *settings = args
-            files = PaintingFiles(Path(out), get_brush(**brush), *settings)
+            out, brush, photo, *settings = args
+            files = PaintingFiles(Path(out), get_brush(**brush), torch.from_numpy(photo), *settings)
         elif kind == "add":
             files.add(torch.from_numpy(args[0]))
             os.write(done, b".")
         else:
-            strokes, photo = args
             try:
-                answer = files.finish(torch.from_numpy(strokes), torch.from_numpy(photo))
+                answer = files.finish(torch.from_numpy(args[0]))
             except OSError as error:  # the command's to tell (a full disk): it stops as if it had met it
                 answer = OSError(error.errno, error.strerror, error.filename)
             pickle.dump(answer, answers)
             answers.flush()
             os._exit(0)  # without Python's tear-down after torch (0.4 s), which the command would wait for
+
+
+def _faces(image: str, side: int, work_size: int) -> list | None:
+    """The faces in the painter's target of ``image`` (:meth:`FilesAhead.search_faces`); None
+    where it cannot be read: the command's own checks tell why."""
+    from nsp.images import load_image, resize
+    from nsp.painter.faces import find_faces
+
+    try:
+        return find_faces(resize(load_image(image, max_side=side), work_size))
+    except Exception:  # noqa: BLE001 — any failure: the command searches itself, and fails as it would have
+        return None
 
 
 def _end_with(command: int) -> None:

@@ -15,8 +15,7 @@ from nsp.engine.fused import pays
 from nsp.images import long_side, psnr, resize, ssim
 from nsp.io.export import Animation, painted_elements, write_png, write_svg
 from nsp.io.strokes import StrokeFile, save_strokes
-
-SCORE_SIZE = 256  # long side at which psnr and ssim compare the painting with the photo
+from nsp.painter.schema import SCORE_SIZE
 
 
 def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str,
@@ -38,17 +37,20 @@ class PaintingFiles:
     Args:
         out: the run dir.
         brush, background: the painting's.
-        aspect: (height, width) of the canvas painted; final.png and painting.svg have a long side
-            of ``render_size``, animation.gif of ``animation_size``.
+        photo: (3, H, W) in [0, 1], the photo painted: its aspect is the canvas's (final.png and
+            painting.svg have a long side of ``render_size``, animation.gif of ``animation_size``),
+            and the scores compare the painting with it.
         frames: animation.gif's most frames after the empty canvas (None: one a stroke).
         strokes: how many the painting has.
         workers: threads (of one torch thread each) the work is shared on.
         device: where the strokes are, and the canvases are painted.
     """
 
-    def __init__(self, out: Path, brush: Brush, aspect: tuple[int, int], background: str, render_size: int,
+    def __init__(self, out: Path, brush: Brush, photo: Tensor, background: str, render_size: int,
                  animation_size: int, frames: int | None, strokes: int, workers: int = 1, device: torch.device | str = "cpu"):
         self.out, self.brush, self.background, self.workers = out, brush, background, workers
+        aspect = photo.shape[-2:]
+        self.photo = resize(photo.cpu(), long_side(*aspect, SCORE_SIZE))  # as similarity() compares it
         self.height, self.width = long_side(*aspect, render_size)
         color = torch.tensor(parse_color(background), device=device)[:, None, None]
         self.canvas = TiledCanvas(color.expand(3, self.height, self.width))
@@ -74,10 +76,10 @@ class PaintingFiles:
             self.elements += painted_elements(images, self.workers)
         self.count += len(strokes)
 
-    def finish(self, strokes: Tensor, photo: Tensor) -> dict[str, float]:
+    def finish(self, strokes: Tensor) -> dict[str, float]:
         """Write ``strokes.json``, ``final.png``, ``painting.svg`` and, beside them, ``animation.gif``
         of all the painting's ``strokes`` (N, d), those not yet added painted first; returns final.png's
-        :func:`similarity` to ``photo``."""
+        :func:`similarity` to the photo."""
         threads = torch.get_num_threads()
         torch.set_num_threads(1)  # a file a core: each file's ops are too small to split well
         try:
@@ -89,7 +91,7 @@ class PaintingFiles:
                 write_png(self.out / "final.png", final)
                 write_svg(self.out / "painting.svg", self.brush, strokes, self.height, self.width, self.background,
                           self.elements)
-                scores = similarity(final, photo)
+                scores = similarity(final, self.photo)
                 gif.result()
                 return scores
         finally:
@@ -102,13 +104,13 @@ class PaintingFiles:
         self.animation.write(self.out / "animation.gif", strokes)
 
 
-def write_files(out: Path, strokes: Tensor, brush: Brush, aspect: tuple[int, int], background: str, render_size: int,
-                animation_size: int, frames: int | None, photo: Tensor, workers: int) -> dict[str, float]:
-    """Write every file of a painting of ``strokes`` (N, d) at once (:class:`PaintingFiles`, on
-    ``workers`` threads); returns final.png's :func:`similarity` to ``photo``."""
-    files = PaintingFiles(out, brush, aspect, background, render_size, animation_size, frames, len(strokes), workers,
+def write_files(out: Path, strokes: Tensor, brush: Brush, photo: Tensor, background: str, render_size: int,
+                animation_size: int, frames: int | None, workers: int) -> dict[str, float]:
+    """Write every file of a painting of ``strokes`` (N, d) of ``photo`` (3, H, W) at once
+    (:class:`PaintingFiles`, on ``workers`` threads); returns final.png's :func:`similarity` to it."""
+    files = PaintingFiles(out, brush, photo, background, render_size, animation_size, frames, len(strokes), workers,
                           strokes.device)
-    return files.finish(strokes, photo)
+    return files.finish(strokes)
 
 
 def similarity(painting: Tensor, photo: Tensor) -> dict[str, float]:

@@ -28,10 +28,10 @@ from nsp.painter.ahead import FilesAhead
 from nsp.painter.callbacks import ProgressBar, SendLevels, TensorBoard
 from nsp.painter.faces import find_faces
 from nsp.painter.losses import PaintLoss
-from nsp.painter.outputs import SCORE_SIZE, write_files, write_strokes_and_png
+from nsp.painter.outputs import write_files, write_strokes_and_png
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import build_renderer
-from nsp.painter.schema import follows_checkpoint
+from nsp.painter.schema import follows_checkpoint, photo_side
 from nsp.renderers.checkpoint import checkpoint_brush
 from nsp.painter.stylize import stylize
 from nsp.signals import shielded
@@ -88,7 +88,7 @@ def prepare(cfg: DictConfig, photo: torch.Tensor | None = None) -> tuple[Painter
     try:
         parse_color(cfg.background)
         brush = get_brush(cfg.brush.name, cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto)
-        largest = max(cfg.work_size, cfg.render_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0)
+        largest = photo_side(cfg)
         if photo is None:
             photo = load_image(cfg.image, max_side=largest)
         elif max(photo.shape[-2:]) > largest:
@@ -158,6 +158,12 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
     return strokes, background, bar.seconds
 
 
+def _faces(target: torch.Tensor, ahead: FilesAhead | None) -> list:
+    """The faces in ``target`` (3, H, W): those the files' process found, else searched here."""
+    found = None if ahead is None else ahead.faces()
+    return find_faces(target) if found is None else found
+
+
 def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool = True,
           ahead: FilesAhead | None = None) -> dict:
     """Paint ``cfg.image`` (or ``photo``, as :func:`prepare` takes it); write the painting's files into
@@ -182,7 +188,7 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
-    shared = (painter.brush, photo.shape[-2:], cfg.background, cfg.render_size)  # brush, aspect, background, size
+    brush, background = painter.brush, cfg.background  # styled strokes may come with a background of their own
     phases = []  # what took how long, as the bars showed it
     with SummaryWriter(out) as writer:  # events in the run dir: TensorBoard names the run after it
         board = TensorBoard(writer, target)
@@ -190,17 +196,17 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
             painter.callbacks += [board, bar]
             if ahead is not None:
                 ahead.begin(out, dict(name=cfg.brush.name, texture=cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto),
-                            *shared[1:], cfg.animation_size, cfg.animation_frames, cfg.strokes)
+                            photo, background, cfg.render_size, cfg.animation_size, cfg.animation_frames, cfg.strokes)
                 painter.callbacks.append(SendLevels(ahead, threads))
                 torch.set_num_threads(1)  # till the files' process has started (SendLevels)
             try:
-                faces = find_faces(target) if round(painter.schedule.face_share * cfg.strokes) else []
+                faces = _faces(target, ahead) if round(painter.schedule.face_share * cfg.strokes) else []
                 strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
             except BaseException:
                 with shielded():
                     if ahead is not None:
                         ahead.close()
-                    write_strokes_and_png(out, painter.strokes(), *shared)
+                    write_strokes_and_png(out, painter.strokes(), brush, photo.shape[-2:], background, cfg.render_size)
                 raise
         painting = bar.seconds
         torch.set_num_threads(threads)
@@ -210,20 +216,20 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
             if image is not None:
                 write_png(out / "style.png", image)
                 styled, background, seconds = paint_style(cfg, painter, strokes, photo, image, style, writer)
-                strokes, shared = styled, (*shared[:2], background, shared[3])  # the canvas recoloured with them
+                strokes = styled  # the canvas recoloured with them
                 phases.append(f"styled in {seconds:.1f} s")
             frames = len(frame_ends(len(strokes), cfg.animation_frames))
             log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
             files = time.perf_counter()
-            scores = None if ahead is None else ahead.finish(strokes, photo)
+            scores = None if ahead is None else ahead.finish(strokes)
             if scores is None:
-                scores = write_files(out, strokes, *shared, cfg.animation_size, cfg.animation_frames, photo,
-                                     workers=min(3, torch.get_num_threads()))
+                scores = write_files(out, strokes, brush, photo, background, cfg.render_size, cfg.animation_size,
+                                     cfg.animation_frames, workers=min(3, torch.get_num_threads()))
         except BaseException:
             with shielded():
                 if ahead is not None:
                     ahead.close()
-                write_strokes_and_png(out, strokes, *shared)  # the painting (styled where that step finished)
+                write_strokes_and_png(out, strokes, brush, photo.shape[-2:], background, cfg.render_size)  # styled, if it was
             raise
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)

@@ -120,6 +120,14 @@ class PaintConfig:
 
 ConfigStore.instance().store(name="paint_schema", node=PaintConfig)
 
+SCORE_SIZE = 256  # long side at which the painting is compared with its photo (nsp.painter.outputs.similarity)
+
+
+def photo_side(cfg: Any) -> int:
+    """The long side a painting of ``cfg`` reads its photo at: the largest it is used at (the
+    working canvas, final.png, the scores, the style's size)."""
+    return max(cfg.work_size, cfg.render_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0)
+
 
 def follows_checkpoint(cfg: Any, brush_named: bool) -> bool:
     """Whether a painting of ``cfg`` takes its brush from ``renderer.checkpoint`` (a trained renderer
