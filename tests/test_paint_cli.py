@@ -96,10 +96,14 @@ def test_the_total_loss_is_logged_only_beside_two_terms_or_more():
         def add_summary(self, summary, step):
             pass
 
+        def flush(self):
+            pass
+
     writer = Writer()
     board = TensorBoard(writer, torch.zeros(3, 4, 4))
     board.on_step(None, 1, {"l1": 0.5, "total": 0.5})
     board.on_step(None, 2, {"l1": 0.5, "ot": 0.1, "total": 0.51})
+    board.flush()
     assert writer.scalars == ["loss/l1", "loss/l1", "loss/ot", "loss/total"]
 
 
@@ -116,17 +120,24 @@ def test_animation_frames_add_the_same_strokes_each_or_one_a_stroke():
 def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeypatch):
     from nsp.painter.callbacks import ProgressBar
 
-    def ctrl_c(self, painter, added):
-        if painter.step > 10:
+    levels, stopped = [], []
+
+    def ctrl_c(self, painter, step, losses):
+        if levels and step == levels[0] + 2:  # two steps into the second level
+            stopped.append(step)
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(ProgressBar, "on_strokes", ctrl_c)
+    monkeypatch.setattr(ProgressBar, "on_level", lambda self, painter, level, canvas: levels.append(painter.step))
+    monkeypatch.setattr(ProgressBar, "on_step", ctrl_c)
     out = tmp_path / "run"
     with pytest.raises(KeyboardInterrupt):
         paint(config(f"image={photo}", f"output_dir={out}", *TINY))
     assert 0 < len(load_strokes(out / "strokes.json").strokes) < 12
     assert Image.open(out / "final.png").size == (96, 64)
     assert not (out / "metrics.json").exists()
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    assert EventAccumulator(str(out)).Reload().Scalars("loss/l1")[-1].step == stopped[0]  # every loss up to the interruption
 
 
 def test_a_painting_interrupted_while_its_files_are_written_keeps_its_strokes_and_picture(photo, tmp_path, monkeypatch):

@@ -235,10 +235,10 @@ def test_a_portrait_painted_with_overshooting_steps_gets_no_patch_of_colour_the_
 def test_stroke_colours_are_clamped_to_the_targets_range_around_them():
     target = torch.zeros(1, 3, 16, 16)
     target[..., 8:] = 0.5  # right half mid grey
-    palette = Palette(smooth(target, 3), window=3, margin=0.0)
     brush = get_brush("tape")
+    palette = Palette(brush, smooth(target, 3), window=3, margin=0.0)
     x = torch.tensor([[[0.1, 0.5, 0.2, 0.1, 0.0, 1.0, 1.0, 1.0], [0.9, 0.5, 0.2, 0.1, 0.0, 1.0, 0.2, 0.0]]])
-    palette.clamp_(brush, x, torch.tensor([0]))
+    palette.clamp_(x, torch.tensor([0]))
     torch.testing.assert_close(x[0, 0, 5:8], torch.zeros(3))  # on black: black
     torch.testing.assert_close(x[0, 1, 5:8], torch.tensor([0.5, 0.5, 0.5]))  # on grey: at most grey, at least grey
 

@@ -35,18 +35,26 @@ class TensorBoard(Callback):
 
     def __init__(self, writer: SummaryWriter, target: Tensor):
         self.writer, self.target, self.step = writer, target, 0
+        self.losses: list[tuple[int, dict[str, float]]] = []  # the steps' not yet written
         self._picture("target", target, 0)
 
     def on_step(self, painter: Painter, step: int, losses: dict[str, float]) -> None:
-        for name, value in losses.items():
-            if name != "total" or len(losses) > 2:
-                self.writer.add_scalar(f"loss/{name}", value, step)
+        self.losses.append((step, losses))  # written a level at a time: a scalar a step woke the writer's thread a step
 
     def on_level(self, painter: Painter, level: int, canvas: Tensor) -> None:
         self.step = painter.step
         at_target = resize(canvas, tuple(self.target.shape[-2:]))  # a finer last level's canvas too
         self.writer.add_scalar("level/psnr", psnr(at_target, self.target).item(), self.step)
         self._picture("canvas", at_target, self.step)  # final.png has the detail
+        self.flush()
+
+    def flush(self) -> None:
+        """Write the steps' losses held back, and everything to disk (an interrupted painting too)."""
+        for step, losses in self.losses:
+            for name, value in losses.items():
+                if name != "total" or len(losses) > 2:
+                    self.writer.add_scalar(f"loss/{name}", value, step)
+        self.losses = []
         self.writer.flush()
 
     def _picture(self, tag: str, image: Tensor, step: int) -> None:

@@ -171,7 +171,7 @@ class Painter:
         x = torch.zeros(level.blocks, depth, self.brush.d, device=target.device, requires_grad=True)
         optimizer = self.optimizer([x])
         forms = Forms.of(goal)
-        palette = Palette(forms.colors, max(5, round(self.schedule.init_size[1] * size))) if self.schedule.palette else None  # a long stroke wide
+        palette = Palette(self.brush, forms.colors, max(5, round(self.schedule.init_size[1] * size))) if self.schedule.palette else None  # a long stroke wide
         painted = torch.zeros_like(exists)
         self._active = (level, x, painted, size)
         current = under.clone()
@@ -190,7 +190,7 @@ class Painter:
                 if palette is not None:
                     with torch.no_grad():
                         strokes = x[live, :k]
-                        palette.clamp_(self.brush, strokes, live)
+                        palette.clamp_(strokes, live)
                         x[live, :k] = strokes
                 self.step += 1
                 for callback in self.callbacks:

@@ -15,35 +15,42 @@ class Palette:
     would allow a green no pixel there has.
 
     Args:
+        brush: the strokes' brush (where its points and colours are among its parameters).
         colors: (B, 3, h, w) the blocks as they should look, 3×3-smoothed (:attr:`Forms.colors
             <nsp.painter.placement.Forms>`, :func:`~nsp.painter.structure.smooth`).
         window: side of the window in block pixels (made odd).
         margin: how far (RGB distance) from the nearest of them a colour may go.
     """
 
-    def __init__(self, colors: Tensor, window: int, margin: float = 0.1):
-        self.colors = colors
+    def __init__(self, brush: Brush, colors: Tensor, window: int, margin: float = 0.1):
+        blocks, _, self.h, self.w = colors.shape
+        self.table = colors.permute(0, 2, 3, 1).reshape(blocks * self.h * self.w, 3)  # a block's pixel a row
         half = (window | 1) // 2
         offsets = torch.arange(-half, half + 1, device=colors.device)
         self.dy, self.dx = offsets.repeat_interleave(len(offsets)), offsets.repeat(len(offsets))  # (n,) each
+        self.scale = torch.tensor([self.w - 1, self.h - 1], dtype=colors.dtype, device=colors.device)  # a centre (x, y) in block pixels
+        self.points = _params(brush, ("x", "y"), colors.device)  # a stroke's xs, then its ys
+        self.paints = _params(brush, ("color",), colors.device)
         self.margin = margin
 
-    def clamp_(self, brush: Brush, x: Tensor, blocks: Tensor) -> None:
+    def clamp_(self, x: Tensor, blocks: Tensor) -> None:
         """Move, in place, each colour of strokes x (b, K, d) of the blocks ``blocks`` (b,) to within
         ``margin`` of the nearest colour in the window at the stroke's centre (the mean of its points)."""
-        _, _, h, w = self.colors.shape
-        xs = [i for i, k in enumerate(brush.kinds) if k == "x"]
-        ys = [i for i, k in enumerate(brush.kinds) if k == "y"]
-        col = (x[..., xs].mean(-1) * (w - 1)).round().long()  # (b, K)
-        row = (x[..., ys].mean(-1) * (h - 1)).round().long()
-        rows = (row[..., None] + self.dy).clamp(0, h - 1)  # (b, K, n)
-        cols = (col[..., None] + self.dx).clamp(0, w - 1)
-        block = blocks[:, None, None].expand_as(rows)
-        near = self.colors[block, :, rows, cols]  # (b, K, n, 3)
-        colors = [i for i, k in enumerate(brush.kinds) if k == "color"]
-        c = x[..., colors].unflatten(-1, (-1, 3))  # (b, K, r, 3): a brush's r colours
-        distance = torch.cdist(c, near)  # (b, K, r, n)
+        b, k, _ = x.shape
+        points = x.index_select(-1, self.points).unflatten(-1, (2, -1))  # (b, K, 2, p): xs, ys
+        col, row = (points.mean(-1) * self.scale).round().long().unbind(-1)
+        rows = (row[..., None] + self.dy).clamp_(0, self.h - 1)  # (b, K, n)
+        cols = (col[..., None] + self.dx).clamp_(0, self.w - 1)
+        pixel = (blocks[:, None, None] * self.h + rows) * self.w + cols
+        near = self.table.index_select(0, pixel.flatten()).view(b, k, -1, 3)  # (b, K, n, 3)
+        c = x.index_select(-1, self.paints).unflatten(-1, (-1, 3))  # (b, K, r, 3): a brush's r colours
+        distance = (c[..., None, :] - near[..., None, :, :]).square().sum(-1)  # (b, K, r, n), squared
         nearest = torch.gather(near, 2, distance.argmin(-1, keepdim=True).expand(*c.shape))  # (b, K, r, 3)
         away = c - nearest
         reach = away.norm(dim=-1, keepdim=True)
-        x[..., colors] = (nearest + away * (self.margin / reach.clamp(min=self.margin))).flatten(-2)
+        x[..., self.paints] = (nearest + away * (self.margin / reach.clamp(min=self.margin))).flatten(-2)
+
+
+def _params(brush: Brush, kinds: tuple[str, ...], device: torch.device) -> Tensor:
+    """The indices of ``brush``'s parameters of each of ``kinds``, kind after kind."""
+    return torch.tensor([i for kind in kinds for i, k in enumerate(brush.kinds) if k == kind], device=device)

@@ -207,6 +207,7 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
                     if ahead is not None:
                         ahead.close()
                     write_strokes_and_png(out, painter.strokes(), brush, photo.shape[-2:], background, cfg.render_size)
+                    board.flush()
                 raise
         painting = bar.seconds
         torch.set_num_threads(threads)
