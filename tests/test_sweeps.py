@@ -114,3 +114,25 @@ def test_one_painting_takes_every_core_and_a_parallel_sweeps_jobs_one_each(tmp_p
         subprocess.run([*paint, "-m", "seed=0,1", f"hydra/launcher={launcher}", f"hydra.sweep.dir={tmp_path / launcher}"],
                        env=env, check=True, capture_output=True, timeout=300)
         assert [metrics(job)["threads"] for job in sorted((tmp_path / launcher).glob("*_astronaut_oilpaint"))] == [threads] * 2
+
+
+@pytest.mark.parametrize("command", ["paint", "train", "render"])
+def test_no_config_of_nsp_sets_hydra_mode(command):  # the command line alone decides it (nsp.cli._mode_from_the_line)
+    import importlib
+
+    from hydra import compose, initialize_config_dir
+
+    from nsp.config import CONF
+
+    importlib.import_module(f"nsp.{command}").schema()  # registers the command's structured config
+    experiments = sorted(path.stem for path in (CONF / command / "experiment").glob("*.yaml"))
+    with initialize_config_dir(str(CONF / command), version_base="1.3"):
+        for overrides in [[], *([f"experiment={name}"] for name in experiments)]:
+            assert compose(command, overrides=overrides, return_hydra_config=True).hydra.mode is None, overrides
+
+
+def test_hydra_mode_on_the_command_line_still_makes_a_sweep(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "nsp.paint", "hydra.mode=MULTIRUN", "seed=0,1", *TINY_PAINT,
+                           f"hydra.sweep.dir={tmp_path}"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert sorted(metrics(job)["strokes"] for job in tmp_path.iterdir() if job.is_dir()) == [8, 8]

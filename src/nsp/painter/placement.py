@@ -47,12 +47,12 @@ def largest_errors(canvas: Tensor, target: Tensor, weights: Tensor, count: int =
     side = window(canvas.shape[-1])
     error = smooth((canvas - target).abs().sum(1, keepdim=True) * weights, side)
     width = canvas.shape[-1]
+    ys, xs = torch.arange(error.shape[-2], device=error.device), torch.arange(width, device=error.device)
     picks = []
     for _ in range(count):  # greedily, each pick clearing its neighbourhood (a plateau gives one pick)
         index = error.flatten(1).argmax(1)
         picks.append(index)
         row, col = index // width, index % width
-        ys, xs = torch.arange(error.shape[-2], device=error.device), torch.arange(width, device=error.device)
         near = ((ys[None, :, None] - row[:, None, None]).abs() <= side) & ((xs[None, None] - col[:, None, None]).abs() <= side)
         error = error.masked_fill(near[:, None], -1.0)
     index = torch.stack(picks, 1)
@@ -93,30 +93,32 @@ def place_strokes(
         Bézier brushes a straight centreline and a radius of half the thickness.
     """
     batch, _, h, w = canvas.shape
-    rows, cols = largest_errors(canvas, target, weights, peaks)
+    rows, cols = largest_errors(canvas, target, weights, peaks)  # (B, P) each
     forms = Forms.of(target) if forms is None else forms
-    pick = torch.arange(batch, device=target.device)
+    pick = torch.arange(batch, device=target.device)[:, None]
     lo, hi = size[0] * (w - 1) / 2, size[1] * (w - 1) / 2  # half-lengths in block pixels
-    out = []
-    for row, col in zip(rows.T, cols.T):
-        along, coherence = orientation(forms.structure[pick, :, row, col])
-        flat = coherence < 0.05
-        turn = torch.rand(batch, generator=generator, dtype=target.dtype, device=generator.device).to(target.device)
-        direction = torch.where(flat, 2 * math.pi * turn, along)
-        colors, dist = reach(target, canvas, row.to(target.dtype), col.to(target.dtype), direction,
-                             forms.colors[pick, :, row, col], hi)
-        head, tail = colors[:, 1].mean(1), colors[:, 0].mean(1)  # (B, 3): the −direction and +direction halves
-        paint = (head, tail) if brush.kinds.count("color") == 6 else (colors.mean((1, 2)),)
-        # the stroke spans the walks' stretch: centre halfway between their ends, half-extents clamped
-        shift = (dist[:, 0] - dist[:, 1]) / 2
-        cx = col + shift * torch.cos(direction) + (dist[:, 2] - dist[:, 3]) / 2 * -torch.sin(direction)
-        cy = row + shift * torch.sin(direction) + (dist[:, 2] - dist[:, 3]) / 2 * torch.cos(direction)
-        for scale in scales:
-            half = (scale * (dist[:, 0] + dist[:, 1]) / 2).clamp(lo, hi)
-            thick = ((dist[:, 2] + dist[:, 3]) / 2).clamp(max(0.5 * lo, 1.0), hi).minimum(half)
-            out.append(_stroke(brush, cx / max(w - 1, 1), cy / max(h - 1, 1), direction, 2 * half / (w - 1),
-                               2 * thick / (w - 1), paint))
-    return out[0] if len(out) == 1 else torch.stack(out, 1)
+    along, coherence = orientation(forms.structure[pick, :, rows, cols])  # (B, P) each
+    turn = torch.rand(peaks, batch, generator=generator, dtype=target.dtype, device=generator.device).to(target.device).T
+    direction = torch.where(coherence < 0.05, 2 * math.pi * turn, along)  # a random one where the target is flat
+    colors, dist = reach(target, canvas, rows.to(target.dtype), cols.to(target.dtype), direction,
+                         forms.colors[pick, :, rows, cols], hi)  # (B, P, 4, samples, 3), (B, P, 4)
+    head, tail = colors[:, :, 1].mean(-2), colors[:, :, 0].mean(-2)  # (B, P, 3): the −direction and +direction halves
+    paint = (head, tail) if brush.kinds.count("color") == 6 else (colors.mean((-3, -2)),)
+    # the stroke spans the walks' stretch: centre halfway between their ends, half-extents clamped
+    shift, across = (dist[..., 0] - dist[..., 1]) / 2, (dist[..., 2] - dist[..., 3]) / 2
+    cx = cols + shift * torch.cos(direction) + across * -torch.sin(direction)
+    cy = rows + shift * torch.sin(direction) + across * torch.cos(direction)
+    scale = torch.tensor(scales, dtype=target.dtype, device=target.device)  # (L,)
+    half = (scale * (dist[..., 0] + dist[..., 1])[..., None] / 2).clamp(lo, hi)  # (B, P, L)
+    thick = ((dist[..., 2] + dist[..., 3]) / 2).clamp(max(0.5 * lo, 1.0), hi)[..., None].minimum(half)
+
+    def each(value: Tensor) -> Tensor:
+        """(B, P, …) -> (B·P·L, …): a peak's value for each of its lengths."""
+        return value[:, :, None].expand(*half.shape, *value.shape[2:]).flatten(0, 2)
+
+    x = _stroke(brush, each(cx / max(w - 1, 1)), each(cy / max(h - 1, 1)), each(direction), 2 * half.flatten() / (w - 1),
+                2 * thick.flatten() / (w - 1), tuple(each(color) for color in paint))
+    return x if peaks * len(scales) == 1 else x.view(batch, peaks * len(scales), -1)
 
 
 def _stroke(brush: Brush, cx: Tensor, cy: Tensor, direction: Tensor, length: Tensor, thickness: Tensor,

@@ -49,29 +49,29 @@ def reach(target: Tensor, canvas: Tensor, row: Tensor, col: Tensor, angle: Tenso
     """How far painting ``color`` from (row, col) on improves the canvas, in four directions: the
     scale of the detail there, as far as this canvas still misses it.
 
-    target, canvas: (B, 3, h, w); row, col: (B,) pixel; angle: (B,) radians; color: (B, 3);
-    limit: the farthest distance looked at, in pixels. Walks out along +angle, −angle and the two
-    perpendiculars in ``samples`` equal steps up to ``limit``, and stops before the first sample
-    where ``color`` is no closer to the target than the canvas is (mean absolute channel
-    difference), or past the block.
+    target, canvas: (B, 3, h, w); row, col: (B, P) pixels, P of each block; angle: (B, P) radians;
+    color: (B, P, 3); limit: the farthest distance looked at, in pixels. Walks out along +angle,
+    −angle and the two perpendiculars in ``samples`` equal steps up to ``limit``, and stops before
+    the first sample where ``color`` is no closer to the target than the canvas is (mean absolute
+    channel difference), or past the block.
 
-    Returns (B, 4, samples + 1, 3) the target's colours passed on each walk (the point itself first;
-    samples past the stop repeat the last one inside) and (B, 4) the distances reached in pixels,
-    in the order along+, along−, across+, across−.
+    Returns (B, P, 4, samples + 1, 3) the target's colours passed on each walk (the point itself
+    first; samples past the stop repeat the last one inside) and (B, P, 4) the distances reached in
+    pixels, in the order along+, along−, across+, across−.
     """
     batch, _, h, w = target.shape
     steps = torch.linspace(0, limit, samples + 1, dtype=target.dtype, device=target.device)  # (S+1,)
-    turns = angle[:, None] + torch.tensor([0.0, math.pi, math.pi / 2, -math.pi / 2], dtype=target.dtype, device=target.device)  # (B, 4)
-    px = col[:, None, None] + torch.cos(turns)[..., None] * steps  # (B, 4, S+1)
-    py = row[:, None, None] + torch.sin(turns)[..., None] * steps
-    grid = torch.stack([2 * px / max(w - 1, 1) - 1, 2 * py / max(h - 1, 1) - 1], -1)  # (B, 4, S+1, 2)
-    both = F.grid_sample(torch.cat([target, canvas], 1), grid, mode="bilinear", padding_mode="border",
-                         align_corners=True).permute(0, 2, 3, 1)  # (B, 4, S+1, 6)
+    turns = angle[..., None] + torch.tensor([0.0, math.pi, math.pi / 2, -math.pi / 2], dtype=target.dtype, device=target.device)  # (B, P, 4)
+    px = col[..., None, None] + torch.cos(turns)[..., None] * steps  # (B, P, 4, S+1)
+    py = row[..., None, None] + torch.sin(turns)[..., None] * steps
+    grid = torch.stack([2 * px / max(w - 1, 1) - 1, 2 * py / max(h - 1, 1) - 1], -1)  # (B, P, 4, S+1, 2)
+    both = F.grid_sample(torch.cat([target, canvas], 1), grid.flatten(1, 2), mode="bilinear", padding_mode="border",
+                         align_corners=True).permute(0, 2, 3, 1).unflatten(1, px.shape[1:3])  # (B, P, 4, S+1, 6)
     seen, painted = both[..., :3], both[..., 3:]
     outside = (px < 0) | (px > w - 1) | (py < 0) | (py > h - 1)
-    worse = (seen - color[:, None, None]).abs().mean(-1) >= (seen - painted).abs().mean(-1)
+    worse = (seen - color[:, :, None, None]).abs().mean(-1) >= (seen - painted).abs().mean(-1)
     inside = torch.cumprod((~(worse | outside)).to(target.dtype), -1).bool()  # True up to the first stop
     inside[..., 0] = True
-    last = inside.sum(-1, keepdim=True) - 1  # (B, 4, 1) index of the last sample inside
-    kept = torch.where(inside[..., None], seen, seen.gather(2, last[..., None].expand(-1, -1, 1, 3)))
+    last = inside.sum(-1, keepdim=True) - 1  # (B, P, 4, 1) index of the last sample inside
+    kept = torch.where(inside[..., None], seen, seen.gather(-2, last[..., None].expand(*last.shape, 3)))
     return kept, steps[last[..., 0]]
