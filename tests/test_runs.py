@@ -108,6 +108,16 @@ def test_default_dirs_are_claimed_once_so_runs_started_in_the_same_second_never_
     assert all(Path(d).is_dir() for d in dirs)
 
 
+def test_a_painting_imports_numpy_before_torch_so_a_ctrl_c_while_torch_loads_is_heard(tmp_path):
+    # torch's own import of numpy swallows a KeyboardInterrupt raised inside it: the painting then ran to its end
+    done = subprocess.run([sys.executable, "-X", "importtime", "-m", "nsp.paint", "strokes=1", "work_size=16",
+                           "render_size=16", "animation_size=16", "progress=false", f"hydra.run.dir={tmp_path}"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    top = [line.rsplit("|", 1)[1] for line in done.stderr.splitlines() if line.startswith("import time:")]
+    assert top.index(" numpy") < top.index(" torch")  # numpy imported whole, at the top level, before torch began
+
+
 @pytest.mark.parametrize("signals", [[signal.SIGTERM], [signal.SIGINT], [signal.SIGINT, signal.SIGINT]],
                          ids=["SIGTERM", "Ctrl-C", "Ctrl-C twice"])
 def test_a_signalled_painting_keeps_what_it_painted_and_exits_interrupted(signals, tmp_path):

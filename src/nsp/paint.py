@@ -19,6 +19,7 @@ from nsp.cli import INTERRUPTED, command, in_sweep, kept, program, run_job
 from nsp.config import BrushConfig
 from nsp.painter.ahead import FilesAhead
 from nsp.painter.schema import PaintConfig, follows_checkpoint, photo_side  # config only: no torch
+from nsp.signals import numpy_before_torch
 from nsp.text import counted
 
 log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.log
@@ -38,6 +39,7 @@ def main(cfg: DictConfig) -> float | None:
         log.warning(f"no process to write the files in while painting ({error.strerror or error}); "
                     "they are written once it is done")
         ahead = None
+    numpy_before_torch()
     import torch
     from hydra.utils import instantiate
 

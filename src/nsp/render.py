@@ -14,6 +14,7 @@ from omegaconf import MISSING, DictConfig, OmegaConf
 
 from nsp.cli import command, fail, program
 from nsp.errors import BadInput
+from nsp.signals import numpy_before_torch
 
 TEXT = ("strokes", "out", "background")  # free text: paths, ``#rrggbb``
 
@@ -35,6 +36,7 @@ ConfigStore.instance().store(name="render_schema", node=RenderConfig)
 def render(cfg: DictConfig) -> Path:
     """Render ``cfg.strokes`` to ``cfg.out``; returns the written path. The file appears whole or
     not at all: an error or an interrupt leaves no partial file."""
+    numpy_before_torch()
     from nsp.colors import parse_color
     from nsp.engine.device import resolve_device
     from nsp.engine.memory import check_canvas, stroke_cover

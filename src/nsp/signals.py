@@ -1,5 +1,6 @@
 """How a run hears Ctrl-C and SIGTERM: both as ``KeyboardInterrupt`` (:func:`interrupt`, SIGTERM's
-handler from the commands' start), and neither while it saves what it had (:func:`shielded`)."""
+handler from the commands' start), while torch loads too (:func:`numpy_before_torch`), and neither
+while it saves what it had (:func:`shielded`)."""
 from __future__ import annotations
 
 import signal
@@ -22,3 +23,9 @@ def shielded() -> Iterator[None]:
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)
+
+
+def numpy_before_torch() -> None:
+    """Import numpy, before torch: torch's own import of it swallows a Ctrl-C that lands there (torch
+    goes on without numpy, and a painting went on to its end, or failed later on a half-made numpy)."""
+    import numpy  # noqa: F401

@@ -14,6 +14,7 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from nsp.cli import INTERRUPTED, command, kept, run_job
+from nsp.signals import numpy_before_torch
 
 log = logging.getLogger("nsp.train")  # Hydra sends it to the console and train.log
 
@@ -23,6 +24,7 @@ def main(cfg: DictConfig) -> float | None:
     again = kept(cfg)  # a job an earlier run of its sweep completed: run_job says so, and it is not trained
     if not again:
         log.info(f"training renderer {choices.renderer} on {choices.brush} strokes, preset {choices.preset}…")
+    numpy_before_torch()
     from nsp.training.run import train
 
     try:
