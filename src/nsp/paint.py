@@ -18,7 +18,7 @@ from omegaconf import MISSING, DictConfig
 from nsp.cli import INTERRUPTED, command, in_sweep, kept, program, run_job
 from nsp.config import BrushConfig
 from nsp.painter.ahead import FilesAhead
-from nsp.painter.schema import PaintConfig, follows_checkpoint, photo_side  # config only: no torch
+from nsp.painter.schema import PaintConfig, follows_checkpoint, photo_side, searches_faces  # config only: no torch
 from nsp.signals import numpy_before_torch
 from nsp.text import counted
 
@@ -33,7 +33,7 @@ def main(cfg: DictConfig) -> float | None:
         what = f"{cfg.strokes} strokes of the checkpoint's brush" if follows_checkpoint(cfg, named) else counted(cfg.strokes, cfg.brush.name + " stroke")
         log.info(f"painting {cfg.image} with {what}…")
     try:
-        faces = (cfg.image, photo_side(cfg), cfg.work_size) if round(cfg.schedule.face_share * cfg.strokes) else None
+        faces = (cfg.image, photo_side(cfg), cfg.work_size) if searches_faces(cfg) else None
         ahead = FilesAhead(faces) if writes_ahead(cfg) else None  # its import of torch beside this one's
     except OSError as error:  # no process to be had (a limit on processes, on memory): the files come after
         log.warning(f"no process to write the files in while painting ({error.strerror or error}); "

@@ -79,8 +79,8 @@ class FilesAhead:
             pass
 
     def faces(self) -> list | None:
-        """The faces found (:class:`~nsp.painter.faces.Box` es), once found; None where the search
-        failed or was not asked for (the caller then searches)."""
+        """The faces found, as :class:`~nsp.painter.faces.Box` es, once found; None where the
+        search failed or was not asked for (the caller then searches)."""
         if not self.searching:
             return None
         self.searching = False
@@ -178,8 +178,8 @@ def main() -> None:
 
 
 def _faces(image: str, side: int, work_size: int) -> list | None:
-    """The faces in the painter's target of ``image`` (:meth:`FilesAhead.search_faces`); None
-    where it cannot be read: the command's own checks tell why."""
+    """The faces in the painter's target of ``image`` (``FilesAhead(faces=…)``); None where it
+    cannot be read: the command's own checks tell why."""
     from nsp.images import load_image, resize
     from nsp.painter.faces import find_faces
 

@@ -31,7 +31,7 @@ from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import write_files, write_strokes_and_png
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import build_renderer
-from nsp.painter.schema import follows_checkpoint, photo_side
+from nsp.painter.schema import follows_checkpoint, photo_side, searches_faces
 from nsp.renderers.checkpoint import checkpoint_brush
 from nsp.painter.stylize import stylize
 from nsp.signals import shielded
@@ -200,7 +200,7 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
                 painter.callbacks.append(SendLevels(ahead, threads))
                 torch.set_num_threads(1)  # till the files' process has started (SendLevels)
             try:
-                faces = _faces(target, ahead) if round(painter.schedule.face_share * cfg.strokes) else []
+                faces = _faces(target, ahead) if searches_faces(cfg) else []
                 strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
             except BaseException:
                 with shielded():

@@ -123,6 +123,11 @@ ConfigStore.instance().store(name="paint_schema", node=PaintConfig)
 SCORE_SIZE = 256  # long side at which the painting is compared with its photo (nsp.painter.outputs.similarity)
 
 
+def searches_faces(cfg: Any) -> bool:
+    """Whether a painting of ``cfg`` looks for faces: its ``face_share`` of the strokes is one or more."""
+    return round(cfg.schedule.face_share * cfg.strokes) > 0
+
+
 def photo_side(cfg: Any) -> int:
     """The long side a painting of ``cfg`` reads its photo at: the largest it is used at (the
     working canvas, final.png, the scores, the style's size)."""

@@ -59,7 +59,7 @@ def reach(target: Tensor, canvas: Tensor, row: Tensor, col: Tensor, angle: Tenso
     first; samples past the stop repeat the last one inside) and (B, P, 4) the distances reached in
     pixels, in the order along+, along−, across+, across−.
     """
-    batch, _, h, w = target.shape
+    _, _, h, w = target.shape
     steps = torch.linspace(0, limit, samples + 1, dtype=target.dtype, device=target.device)  # (S+1,)
     turns = angle[..., None] + torch.tensor([0.0, math.pi, math.pi / 2, -math.pi / 2], dtype=target.dtype, device=target.device)  # (B, P, 4)
     px = col[..., None, None] + torch.cos(turns)[..., None] * steps  # (B, P, 4, S+1)
