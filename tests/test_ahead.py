@@ -18,7 +18,7 @@ from nsp.brushes import get_brush
 from nsp.cli import INTERRUPTED
 from nsp.images import load_image, resize
 from nsp.io.strokes import load_strokes
-from nsp.paint import AHEAD_STROKES, writes_ahead
+from nsp.paint import AHEAD_STROKES, _early, writes_ahead
 from nsp.painter.ahead import FilesAhead
 from nsp.painter.faces import find_faces
 from nsp.painter.outputs import PaintingFiles, write_files
@@ -65,6 +65,7 @@ def test_files_written_ahead_in_their_own_process_are_those_written_here(tmp_pat
     scores = made_at_once(tmp_path / "here", brush, strokes, photo)
     (tmp_path / "ahead").mkdir()
     ahead = FilesAhead()
+    ahead.look_for_faces(None)
     try:
         ahead.begin(tmp_path / "ahead", dict(name="oilpaint", texture=None, seed=3, impasto=True), photo, "white", RENDER,
                     ANIMATION, FRAMES, len(strokes))
@@ -79,6 +80,7 @@ def test_files_written_ahead_in_their_own_process_are_those_written_here(tmp_pat
 
 def test_a_files_process_that_fails_leaves_the_files_to_the_command_saying_why(tmp_path, caplog):
     ahead = FilesAhead()
+    ahead.look_for_faces(None)
     try:
         ahead.begin(tmp_path, dict(name="crayon", texture=None, seed=0, impasto=True), torch.rand(3, *ASPECT), "white",
                     RENDER, ANIMATION, FRAMES, 3)
@@ -95,6 +97,7 @@ def test_a_file_the_process_cannot_write_is_the_commands_error(tmp_path):
     taken = tmp_path / "taken"
     taken.write_text("")  # a file where the run dir should be: no file can go into it
     ahead = FilesAhead()
+    ahead.look_for_faces(None)
     try:
         ahead.begin(taken, dict(name="tape", texture=None, seed=0, impasto=True), torch.rand(3, *ASPECT), "white", RENDER,
                     ANIMATION, FRAMES, 3)
@@ -111,6 +114,40 @@ def test_a_painting_writes_ahead_on_its_own_with_every_core_and_enough_strokes(t
         assert writes_ahead(cfg)  # this machine has 2 cores
         for override in (f"strokes={AHEAD_STROKES - 1}", "threads=2", "style.image=chelsea"):
             assert not writes_ahead(compose("paint", overrides=[override])), override
+
+
+def test_a_single_painting_starts_its_files_process_before_its_config_is_read():
+    for line in (["--help"], ["--cfg", "job"], ["-m", "seed=0,1"], ["seed=0,1", "hydra.mode=MULTIRUN"]):
+        assert _early(line) is None, line  # no painting, or a sweep's: jobs a core each
+    ahead = _early(["strokes=100", "image=chelsea"])
+    try:
+        assert isinstance(ahead, FilesAhead) and ahead.process.poll() is None
+    finally:
+        ahead.close()
+
+
+def test_a_files_process_started_early_is_ended_where_the_config_writes_the_files_itself(tmp_path, capsys, monkeypatch):
+    import nsp.paint
+    from test_catalogue import run_cli
+
+    made = []
+
+    class Unused(FilesAhead):
+        def __init__(self):
+            super().__init__()
+            made.append(self)
+
+        def look_for_faces(self, *args):
+            raise AssertionError("threads=1 paints on one core and writes its files itself")
+
+    monkeypatch.setattr(nsp.paint, "FilesAhead", Unused)
+    run = tmp_path / "run"
+    code, err = run_cli("nsp.paint", [f"strokes={AHEAD_STROKES}", "threads=1", "work_size=32", f"render_size={RENDER}",
+                                      f"animation_size={ANIMATION}", "progress=false", "schedule.steps_per_stroke=1",
+                                      "schedule.polish=0", f"hydra.run.dir={run}"], capsys, monkeypatch)
+    assert code == 0, err
+    assert len(made) == 1 and made[0].process.returncode is not None  # started before the config was read; ended
+    assert all((run / name).is_file() for name in FILES)
 
 
 def test_a_painting_whose_files_were_written_ahead_has_those_files_and_scores(tmp_path):
@@ -130,7 +167,8 @@ def test_a_painting_whose_files_were_written_ahead_has_those_files_and_scores(tm
 
 
 def test_the_process_finds_the_faces_the_painter_would_find_in_its_target():
-    ahead = FilesAhead(faces=("astronaut", 1024, 256))
+    ahead = FilesAhead()
+    ahead.look_for_faces("astronaut", 1024, 256)
     try:
         found = ahead.faces()
         assert ahead.faces() is None  # one answer
@@ -140,7 +178,8 @@ def test_the_process_finds_the_faces_the_painter_would_find_in_its_target():
 
 
 def test_faces_the_process_cannot_find_are_left_to_the_command(tmp_path):
-    ahead = FilesAhead(faces=(str(tmp_path / "nope.png"), 1024, 256))
+    ahead = FilesAhead()
+    ahead.look_for_faces(str(tmp_path / "nope.png"), 1024, 256)
     try:
         assert ahead.faces() is None  # the command searches, or tells what is wrong with the image
         ahead.begin(tmp_path, dict(name="tape", texture=None, seed=0, impasto=True), torch.rand(3, *ASPECT), "white",
@@ -152,6 +191,7 @@ def test_faces_the_process_cannot_find_are_left_to_the_command(tmp_path):
 
 def test_the_process_says_when_it_is_at_work_and_when_it_is_done(tmp_path):
     ahead = FilesAhead()
+    ahead.look_for_faces(None)
     try:
         assert ahead.working()  # starting: its imports
         waited = time.monotonic()

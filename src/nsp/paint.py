@@ -15,7 +15,7 @@ from pathlib import Path
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import MISSING, DictConfig
 
-from nsp.cli import INTERRUPTED, command, in_sweep, kept, program, run_job
+from nsp.cli import INTERRUPTED, command, in_sweep, kept, program, run_job, sweeps
 from nsp.config import BrushConfig
 from nsp.painter.ahead import FilesAhead
 from nsp.painter.schema import PaintConfig, follows_checkpoint, photo_side, searches_faces  # config only: no torch
@@ -27,18 +27,25 @@ log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.
 AHEAD_STROKES = 100  # fewer are painted about as soon as the files' process has imported torch: no time gained
 TEXT = ("image", "background", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
 
-def main(cfg: DictConfig) -> float | None:
+def main(cfg: DictConfig, early: FilesAhead | None = None) -> float | None:
+    """The command's job; ``early``: the files' process, started before the config was read
+    (:func:`cli`), used where the config :func:`writes_ahead`, else closed."""
     named = "brush" in {o.lstrip("+~").split("=", 1)[0].split(".")[0] for o in HydraConfig.get().overrides.task}
     if cfg.task is None and not kept(cfg):  # the first line, before the work's modules load (seconds)
         what = f"{cfg.strokes} strokes of the checkpoint's brush" if follows_checkpoint(cfg, named) else counted(cfg.strokes, cfg.brush.name + " stroke")
         log.info(f"painting {cfg.image} with {what}…")
-    try:
-        faces = (cfg.image, photo_side(cfg), cfg.work_size) if searches_faces(cfg) else None
-        ahead = FilesAhead(faces) if writes_ahead(cfg) else None  # its import of torch beside this one's
-    except OSError as error:  # no process to be had (a limit on processes, on memory): the files come after
-        log.warning(f"no process to write the files in while painting ({error.strerror or error}); "
-                    "they are written once it is done")
-        ahead = None
+    ahead = None
+    if not writes_ahead(cfg):
+        if early is not None:
+            early.close()
+    else:
+        try:
+            ahead = early or FilesAhead()  # its import of torch beside this one's
+        except OSError as error:  # no process to be had (a limit on processes, on memory): the files come after
+            log.warning(f"no process to write the files in while painting ({error.strerror or error}); "
+                        "they are written once it is done")
+        else:
+            ahead.look_for_faces(cfg.image if searches_faces(cfg) else None, photo_side(cfg), cfg.work_size)
     numpy_before_torch()
     import torch
     from hydra.utils import instantiate
@@ -87,7 +94,25 @@ def schema() -> object:
 
 def cli() -> None:
     """The command line: ``python -m nsp.paint``."""
-    command("paint", main, schema, text=TEXT)
+    early = _early(sys.argv[1:])
+    try:
+        command("paint", lambda cfg: main(cfg, early), schema, text=TEXT)
+    finally:
+        if early is not None:
+            early.close()
+
+
+def _early(argv: list[str]) -> FilesAhead | None:
+    """The files' process, started before Hydra reads the config, where the line asks for one
+    painting (no flag, no sweep) on a machine of two cores or more: it loads the face cascade while
+    Hydra composes (0.2 s), so that its faces are found once torch is in. None where it cannot be
+    had: :func:`main` starts one, if the config writes ahead, and tells why not."""
+    if any(arg.startswith("-") for arg in argv) or sweeps(argv) or os.name != "posix" or _cores() < 2:
+        return None
+    try:
+        return FilesAhead()
+    except OSError:
+        return None
 
 
 def run() -> None:

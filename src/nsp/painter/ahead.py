@@ -1,7 +1,8 @@
 """A painting's files made ahead, in a process of their own, while it is painted.
 
-``python -m nsp.paint`` on a machine of two cores or more starts this process before it imports
-torch, so the two imports run side by side. Once it has torch, it finds the photo's faces
+``python -m nsp.paint`` on a machine of two cores or more starts this process before it reads its
+config, so the process loads scikit-image's face cascade while Hydra composes, and imports torch
+beside the command's own import. Then it finds the photo's faces
 (:func:`~nsp.painter.faces.find_faces`) while the command builds its painter. Each finished level's
 strokes then come to it, and it paints them into final.png's canvas, the GIF's frames and the SVG's
 elements (:class:`~nsp.painter.outputs.PaintingFiles`) while the painter paints the next level: on
@@ -9,11 +10,12 @@ one thread while this process works, on all of torch's while it is idle
 (:class:`~nsp.painter.callbacks.SendLevels`). Once the last level is done, only its strokes and the
 encoding are left. The files are those :func:`~nsp.painter.outputs.write_files` would write.
 
-The command's half imports no torch. The process runs ``python -m nsp.painter.ahead PID FD [IMAGE
-SIDE WORK_SIZE]`` (the faces to find) and takes pickled messages on its stdin: ``("begin", out,
-brush, …)`` (:class:`~nsp.painter.outputs.PaintingFiles`' settings), ``("add", strokes)`` a level,
-and ``("finish", strokes)``. It answers on its stdout with the faces, then the scores; it
-writes a byte to the pipe ``FD`` once started and after each ``add``.
+The command's half imports no torch. The process runs ``python -m nsp.painter.ahead PID FD`` and
+takes pickled messages on its stdin: first ``("faces", image, side, work_size)`` (the faces to
+find; ``image`` None: none), then ``("begin", out, brush, …)`` (:class:`~nsp.painter.outputs.PaintingFiles`'
+settings), ``("add", strokes)`` a level, and ``("finish", strokes)``. It answers on its stdout with
+the faces, where asked, then the scores; it writes a byte to the pipe ``FD`` once started and
+after each ``add``.
 """
 from __future__ import annotations
 
@@ -36,27 +38,30 @@ PR_SET_PDEATHSIG = 1  # prctl's option: the signal a process gets when its paren
 
 class FilesAhead:
     """The command's end of the process: :meth:`begin`, :meth:`add` as levels finish, then
-    :meth:`finish`; :meth:`close` ends the process, done or not (an interrupted painting).
-    :meth:`working` tells whether it is busy, so the painter may take both cores while it is not.
-
-    Args:
-        faces: (image, side, work_size): first thing, find the faces of ``image`` (a path or a
-            built-in photo's name, read at long side ``side`` and searched at ``work_size``, as the
-            painter's target is made); :meth:`faces` answers. None: no search.
+    :meth:`finish`, after :meth:`look_for_faces`; :meth:`close` ends the process, done or not (an
+    interrupted painting, or a config that writes the files after all). :meth:`working` tells
+    whether it is busy, so the painter may take both cores while it is not.
     """
 
-    def __init__(self, faces: tuple[str, int, int] | None = None):
+    def __init__(self):
         self.errors = tempfile.TemporaryFile()  # what the process says on stderr, told if it fails
         self.done, done = os.pipe()  # a byte from the process for its start (its imports), and for each add done
-        self.process = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), str(done),
-                                         *map(str, faces or ())], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                        stderr=self.errors, pass_fds=(done,))
+        self.process = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), str(done)],
+                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self.errors,
+                                        pass_fds=(done,))
         os.close(done)
         os.set_blocking(self.done, False)
         self.pending = 1  # its start
-        self.searching = faces is not None  # whether the faces' answer is yet to be read
+        self.searching = False  # whether the faces' answer is yet to be read
         self.outbox: queue.SimpleQueue = queue.SimpleQueue()
         threading.Thread(target=self._send, daemon=True).start()
+
+    def look_for_faces(self, image: str | None, side: int = 0, work_size: int = 0) -> None:
+        """The first message: find the faces of ``image`` (a path or a built-in photo's name, read
+        at long side ``side`` and searched at ``work_size``, as the painter's target is made), which
+        :meth:`faces` answers; None: no search."""
+        self.searching = image is not None
+        self.outbox.put(("faces", image, side, work_size))
 
     def working(self) -> bool:
         """Whether the process is still at work on what it was given: its start or strokes (not
@@ -144,13 +149,23 @@ def main() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the command's: it ends this process once it has kept what it had
     _end_with(int(sys.argv[1]))
     done = int(sys.argv[2])
+    from nsp.painter.faces import cascade
+
+    try:
+        cascade()  # before torch: the command is still reading its config
+    except ImportError:  # the search fails, and the command searches itself and tells why
+        pass
     import torch
 
     torch.set_num_threads(1)  # the painter has the other core
     inbox, answers, files = sys.stdin.buffer, os.fdopen(os.dup(1), "wb"), None
     os.dup2(2, 1)  # whatever else writes to stdout goes to stderr, not into the answer
-    if len(sys.argv) > 3:  # the faces first, as soon as torch is in: the painter waits on them
-        pickle.dump(_faces(sys.argv[3], int(sys.argv[4]), int(sys.argv[5])), answers)
+    try:
+        _, image, side, work_size = pickle.load(inbox)  # the faces first, as soon as torch is in: the painter waits on them
+    except EOFError:  # the command ended, or writes the files itself
+        return
+    if image is not None:
+        pickle.dump(_faces(image, side, work_size), answers)
         answers.flush()
     from nsp.brushes import get_brush
     from nsp.painter.outputs import PaintingFiles
@@ -178,8 +193,8 @@ def main() -> None:
 
 
 def _faces(image: str, side: int, work_size: int) -> list | None:
-    """The faces in the painter's target of ``image`` (``FilesAhead(faces=…)``); None where it
-    cannot be read: the command's own checks tell why."""
+    """The faces in the painter's target of ``image`` (:meth:`FilesAhead.look_for_faces`); None where
+    it cannot be read: the command's own checks tell why."""
     from nsp.images import load_image, resize
     from nsp.painter.faces import find_faces
 

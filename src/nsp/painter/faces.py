@@ -4,10 +4,11 @@ each face a level of finer blocks of its own (``Painter.paint(faces=…)``): err
 picture spends a 500-stroke budget on the flag and the suit, and paints eyes as brown bars."""
 from __future__ import annotations
 
-from typing import NamedTuple
+from functools import cache
+from typing import TYPE_CHECKING, NamedTuple
 
-import torch
-from torch import Tensor
+if TYPE_CHECKING:  # this module imports no torch: the files' process loads the cascade before it (nsp.painter.ahead)
+    from torch import Tensor
 
 MIN_FACE = 12  # the smallest face looked for, in pixels of the image searched
 MARGIN = 0.3  # a found box grows by this share of its side: the cascade frames eyes to mouth, not the hairline and chin
@@ -22,16 +23,24 @@ class Box(NamedTuple):
     width: float
 
 
-def find_faces(image: Tensor) -> list[Box]:
-    """The frontal faces in ``image`` (3, H, W) in [0, 1], each box grown by ``MARGIN`` and kept
-    within the image; boxes that overlap are merged. Best at a 256-px working size (0.1–0.2 s)."""
-    from skimage.data import lbp_frontal_face_cascade_filename  # scipy comes with it: 0.2 s, only when asked
+@cache
+def cascade():
+    """scikit-image's frontal-face cascade, loaded once; its import brings scipy (0.2–0.3 s), only
+    when faces are looked for."""
+    from skimage.data import lbp_frontal_face_cascade_filename
     from skimage.feature._cascade import Cascade
 
+    return Cascade(lbp_frontal_face_cascade_filename())
+
+
+def find_faces(image: Tensor) -> list[Box]:
+    """The frontal faces in ``image`` (3, H, W) in [0, 1], each box grown by ``MARGIN`` and kept
+    within the image; boxes that overlap are merged. Best at a 256-px working size (0.1 s, once the
+    :func:`cascade` is loaded)."""
     _, height, width = image.shape
-    pixels = (image.permute(1, 2, 0).clamp(0, 1) * 255).round().to(torch.uint8).cpu().numpy()
+    pixels = (image.permute(1, 2, 0).clamp(0, 1) * 255).round().byte().cpu().numpy()
     side = min(height, width)
-    found = Cascade(lbp_frontal_face_cascade_filename()).detect_multi_scale(
+    found = cascade().detect_multi_scale(
         img=pixels, scale_factor=1.2, step_ratio=1, min_size=(MIN_FACE, MIN_FACE), max_size=(side, side))
     boxes: list[tuple[float, float, float, float]] = []  # (top, left, bottom, right) in pixels
     for face in found:
