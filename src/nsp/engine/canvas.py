@@ -54,7 +54,7 @@ def box_images(brush: Brush, strokes: Tensor, tiles: Tiles, height: int, width: 
     box = brush.extent(strokes.detach().double(), height, width)  # (n, 4) px: x_min, y_min, x_max, y_max
     first = torch.maximum(torch.ceil(box[:, :2] - 0.5).long(), torch.stack([c0, r0], 1) * side)  # within both, and the canvas
     last = torch.minimum(torch.floor(box[:, 2:] + 0.5).long(), torch.stack([c1 + 1, r1 + 1], 1) * side - 1)
-    last = torch.minimum(last, torch.tensor([width - 1, height - 1]))
+    last = torch.minimum(last, torch.tensor([width - 1, height - 1], device=last.device))
     out = []
     for (left, top), (right, bottom), image, h, w, y0, x0 in zip(first.tolist(), last.tolist(), images.split(areas.tolist()),
                                                                   lines.tolist(), cols.tolist(), (r0 * side).tolist(),

@@ -41,7 +41,7 @@ class Palette:
         col, row = (points.mean(-1) * self.scale).round().long().unbind(-1)
         rows = (row[..., None] + self.dy).clamp_(0, self.h - 1)  # (b, K, n)
         cols = (col[..., None] + self.dx).clamp_(0, self.w - 1)
-        pixel = (blocks[:, None, None] * self.h + rows) * self.w + cols
+        pixel = (blocks.to(rows.device)[:, None, None] * self.h + rows) * self.w + cols  # blocks: the CPU's indices
         near = self.table.index_select(0, pixel.flatten()).view(b, k, -1, 3)  # (b, K, n, 3)
         c = x.index_select(-1, self.paints).unflatten(-1, (-1, 3))  # (b, K, r, 3): a brush's r colours
         distance = (c[..., None, :] - near[..., None, :, :]).square().sum(-1)  # (b, K, r, n), squared
