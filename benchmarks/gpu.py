@@ -6,7 +6,8 @@ to end) and renderer training steps at the paper's scale, on the GPU torch sees.
 Each engine and training rate is the fastest of ``--repeats`` timed calls after a warm-up, the GPU
 synchronized before each clock is read. A painting is ``python -m nsp.paint device=cuda`` in a fresh
 process, timed from outside (start-up included), with the PSNR and the painting's own time from its
-metrics.json. Prints markdown tables and writes them as the "On a GPU" section of docs/benchmarks.md.
+metrics.json. Prints markdown tables and writes each part's as its "On a GPU: …" section of
+docs/benchmarks.md.
 """
 from __future__ import annotations
 
@@ -116,6 +117,29 @@ def training_rows(device: torch.device, repeats: int, steps: int) -> list[str]:
     return rows
 
 
+SECTIONS = {  # each part's section of docs/benchmarks.md, and what its table shows
+    "engine": ("On a GPU: the vector engine",
+               "The vector engine on the GPU, eager (its compiled kernels are the CPU's), moderate random strokes "
+               "(`benchmarks/engine.py`'s): a batch each rendered alone into a reused dense tensor (16 M floats: 256 "
+               f"strokes at 128 px, 16 at 512, 1 at 2048), and {CANVAS:,} painted in order onto one canvas, as "
+               "`nsp.render` does. The fastest of several timed calls after a warm-up, the GPU synchronized."),
+    "training": ("On a GPU: renderer training",
+                 "Renderer training at `preset=paper` (128 px, batch 64, the paper's layers), watercolor: the batches "
+                 "drawn by the engine on the GPU (`data.render_on_device`, uniform random strokes, as training draws "
+                 "them), and training steps (forward, backward, Adam step) on drawn batches. The fastest of several "
+                 "timed calls of `--steps` batches."),
+    "paintings": ("On a GPU: paintings",
+                  "`python -m nsp.paint device=cuda brush=B strokes=N` on its other defaults (the astronaut), a fresh "
+                  "process each, timed from outside (start-up included); *painting* and the PSNR from its metrics.json."),
+}
+
+
+def write(part: str, rows: list[str], command: str, machine: str, date: str) -> None:
+    """Write one part's table as its section of docs/benchmarks.md."""
+    title, text = SECTIONS[part]
+    write_section(title, "\n".join([text, "", f"Command: `{command}`  ", f"Machine: {machine}; {date}", "", *rows]))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS), help="what is measured")
@@ -129,26 +153,12 @@ def main() -> None:
     if not torch.cuda.is_available():
         sys.exit("benchmarks/gpu.py: torch sees no GPU")
     device = torch.device("cuda")
-    engine = engine_rows(device, args.repeats) if "engine" in args.parts else []
-    training = training_rows(device, args.repeats, args.steps) if "training" in args.parts else []
-    paintings = painting_rows(args.brushes, args.strokes, args.timeout) if "paintings" in args.parts else []
+    measure = {"engine": lambda: engine_rows(device, args.repeats),
+               "training": lambda: training_rows(device, args.repeats, args.steps),
+               "paintings": lambda: painting_rows(args.brushes, args.strokes, args.timeout)}
     command = " ".join(["python", "benchmarks/gpu.py", *sys.argv[1:]])
-    write_section("On a GPU", "\n".join([
-        "The vector engine, eager (its compiled kernels are the CPU's), moderate random strokes "
-        "(`benchmarks/engine.py`'s): a batch rendered each alone into a reused dense tensor, and "
-        f"{CANVAS:,} painted in order onto one canvas. Renderer training at `preset=paper` (128 px, batch 64, "
-        "the batches drawn on the GPU), watercolor. Paintings: `python -m nsp.paint device=cuda` on its other "
-        "defaults (the astronaut), a fresh process each, timed from outside.",
-        "",
-        f"Command: `{command}`  ",
-        f"Machine: {machine()}; {time.strftime('%Y-%m-%d')}",
-        "",
-        *engine,
-        "",
-        *training,
-        "",
-        *paintings,
-    ]))
+    for part in args.parts:
+        write(part, measure[part](), command, machine(), time.strftime("%Y-%m-%d"))
 
 
 if __name__ == "__main__":
