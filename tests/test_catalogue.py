@@ -138,6 +138,8 @@ def files(tmp_path_factory) -> dict[str, str]:
     data = json.loads(painting.read_text())
     data["strokes"][1]["x"] = float("nan")
     (tmp / "nan.json").write_text(json.dumps(data))
+    save_strokes(tmp / "oil.json", StrokeFile(BRUSHES["oilpaint"], torch.rand(3, 11, generator=torch.Generator().manual_seed(0)), 48, 64))
+    (tmp / "vast.json").write_text(painting.read_text().replace('"height": 48', f'"height": {10**400}'))
     (tmp / "notes.json").write_text("not JSON {")
     (tmp / "listed.json").write_text("[1, 2, 3]")
     np.savez(tmp / "ref.npz", x_ctt=np.full((1, 2, 8), np.nan, np.float32), x_color=np.zeros((1, 2, 6), np.float32),
@@ -145,7 +147,7 @@ def files(tmp_path_factory) -> dict[str, str]:
     return {"notes": str(tmp / "notes.txt"), "tmp": str(tmp), "previous": str(previous), "ckpt": str(ckpt),
             "cut": str(tmp / "cut.ckpt"), "noise": str(tmp / "noise.ckpt"), "painting": str(painting),
             "notes_json": str(tmp / "notes.json"), "listed": str(tmp / "listed.json"), "nan": str(tmp / "nan.json"),
-            "npz": str(tmp / "ref.npz")}
+            "npz": str(tmp / "ref.npz"), "oil": str(tmp / "oil.json"), "vast": str(tmp / "vast.json")}
 
 
 def run_cli(module: str, argv: list[str], capsys, monkeypatch) -> tuple[int, str]:
@@ -215,7 +217,11 @@ RENDER = [
     ("out folder impossible", ["strokes={painting}", "out={notes}/out.png"], "cannot make its folder"),
     ("size zero", ["strokes={painting}", "size=0", "out={tmp}/r/out.png"], "size=0"),
     ("size not a number", ["strokes={painting}", "size=abc", "out={tmp}/r/out.png"], "size=abc"),
+    ("size under the least", ["strokes={painting}", "size=8", "out={tmp}/r/out.png"], "size=8: expected a whole number of pixels from 16"),
+    ("size of 400 digits", ["strokes={painting}", f"size={10**400}", "out={tmp}/r/out.png"], "size=an integer of over 39 digits"),
     ("size beyond memory", ["strokes={painting}", "size=10000000", "out={tmp}/r/out.png"], "size=10000000"),
+    ("SVG beyond memory", ["strokes={oil}", "size=10000000", "out={tmp}/r/out.svg"], "size=10000000: a 10000000×7500000 render"),
+    ("canvas of 400 digits", ["strokes={vast}", "out={tmp}/r/out.png"], "height a 401-digit number"),
     ("background not a colour", ["strokes={painting}", "background=blue-ish", "out={tmp}/r/out.png"], "blue-ish"),
     ("brush unknown", ["strokes={npz}", "brush=oil", "out={tmp}/r/out.png"], "brush=oil"),
     ("key misspelt", ["strokes={painting}", "sise=64", "out={tmp}/r/out.png"], "Did you mean 'size'"),
@@ -227,6 +233,13 @@ RENDER = [
 @pytest.mark.parametrize(("case", "argv", "words"), RENDER, ids=[case for case, _, _ in RENDER])
 def test_render(case, argv, words, files, capsys, monkeypatch):
     check("nsp.render", [a.format(**files) for a in argv], words, Path(files["tmp"]) / "r", capsys, monkeypatch)
+
+
+def test_a_refused_paintings_log_ends_with_its_error_line(tmp_path, capsys, monkeypatch):
+    code, err = run_cli("nsp.paint", [*PAINT_BASE, "strokes=0", f"hydra.run.dir={tmp_path}"], capsys, monkeypatch)
+    assert code == 2 and err.strip() == "error: strokes=0: expected a positive number"
+    first, last = (tmp_path / "paint.log").read_text().strip().splitlines()
+    assert first.endswith("painting astronaut with 0 oilpaint strokes…") and last.endswith(f"ERROR] - {err.strip()}")
 
 
 REPORT = [

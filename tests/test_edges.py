@@ -111,6 +111,19 @@ def test_a_disk_that_fills_while_a_painting_writes_keeps_what_was_written(tmp_pa
     assert "final.png" in line and "strokes.json" in line
     assert len(load_strokes(tmp_path / "strokes.json").strokes) == 4  # whole, readable
     assert not list(tmp_path.glob(".*.tmp*"))
+    assert (tmp_path / "paint.log").read_text().strip().splitlines()[-1].endswith(line)  # the run's log says it too
+
+
+def test_a_disk_that_fills_while_painting_from_python_is_one_line(tmp_path, monkeypatch):
+    from nsp.api import paint
+    from nsp.errors import RunFailed
+
+    with full_disk(monkeypatch, "painting.svg", "animation.gif"), pytest.raises(RunFailed) as failed:
+        paint("astronaut", out=tmp_path, strokes=4, work_size=32, render_size=64, animation_size=32, progress=False)
+    message = str(failed.value)
+    assert message.startswith(f"No space left on device while writing into {tmp_path}; the run stopped, keeping ")
+    assert "final.png" in message and "strokes.json" in message and "\n" not in message
+    assert len(load_strokes(tmp_path / "strokes.json").strokes) == 4 and not list(tmp_path.glob(".*.tmp*"))
 
 
 def test_a_sweep_on_a_full_disk_ends_with_one_line_even_when_no_job_can_record(tmp_path, capsys, monkeypatch):

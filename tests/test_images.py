@@ -1,15 +1,17 @@
-"""``load_image``: every kind of file shows as an image viewer shows it, and large photos load small."""
+"""``load_image``: every kind of file shows as an image viewer shows it, and large photos load small;
+pixel arrays of every dtype and layout (``from_array``) read by their dtype."""
 import struct
 import subprocess
 import sys
 import zlib
 from pathlib import Path
 
+import numpy as np
 import pytest
 import torch
 from PIL import Image
 
-from nsp.images import ImageError, load_image, long_side
+from nsp.images import ImageError, from_array, from_pil, load_image, long_side
 
 RED, BLUE, WHITE = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0, 1.0)
 PEAK_GROWTH = r"""
@@ -190,3 +192,67 @@ def test_a_painting_of_a_strip_is_scored():
     scores = similarity(photo.flip(-1), photo)
     assert 0 < scores["ssim"] < 1 and scores["psnr"] > 0
     assert similarity(photo, photo)["ssim"] == pytest.approx(1.0)
+
+
+# Pixel arrays: numpy or torch, every layout and dtype ---------------------------------------------
+
+PHOTO = np.random.default_rng(0).integers(0, 256, (5, 7, 3), dtype=np.uint8)  # (H, W, 3): neither side a channel count
+PHOTO[0, 0], PHOTO[-1, -1] = 0, 255  # the whole range
+EXPECTED = torch.from_numpy(PHOTO).permute(2, 0, 1).float() / 255  # (3, 5, 7)
+HWC, CHW = PHOTO, PHOTO.transpose(2, 0, 1)
+
+
+@pytest.mark.parametrize("pixels", [
+    HWC, torch.from_numpy(HWC), CHW, torch.from_numpy(CHW), CHW[None], torch.from_numpy(CHW)[None],  # uint8, 4 layouts
+    HWC.astype(np.uint16) * 257, torch.from_numpy(HWC.astype(np.uint16) * 257),  # 16-bit, 0–65535
+    HWC.astype(np.int64), HWC.astype(np.int32), HWC.astype(np.int16), torch.from_numpy(HWC).long(),  # integers: 0–255
+    HWC / 255, (HWC / 255).astype(np.float32), torch.from_numpy(CHW).float() / 255,  # floats in [0, 1]
+    torch.from_numpy(CHW).double() / 255, np.dstack([HWC, np.full((5, 7), 255, np.uint8)]),  # opaque RGBA
+], ids=["hwc", "hwc tensor", "chw", "chw tensor", "1chw", "1chw tensor", "uint16", "uint16 tensor", "int64", "int32",
+        "int16", "int64 tensor", "float64", "float32", "float32 tensor", "float64 tensor", "rgba"])
+def test_every_layout_and_dtype_of_the_same_photo_reads_the_same(pixels):
+    photo = from_array(pixels)
+    assert photo.shape == (3, 5, 7) and photo.dtype == torch.float32
+    torch.testing.assert_close(photo, EXPECTED, atol=1e-6, rtol=0)
+
+
+def test_half_floats_grey_bool_and_alpha_read_by_their_values():
+    torch.testing.assert_close(from_array((HWC / 255).astype(np.float16)), EXPECTED, atol=1e-3, rtol=0)
+    torch.testing.assert_close(from_array(torch.from_numpy(CHW).bfloat16() / 255), EXPECTED, atol=4e-3, rtol=0)
+    grey = from_array(np.full((4, 6), 32768, np.uint16))  # (H, W) 16-bit: mid grey, not white
+    assert grey.shape == (3, 4, 6) and torch.allclose(grey, torch.tensor(32768 / 65535))
+    mask = from_array(np.eye(4, dtype=bool))  # True white, False black
+    assert mask[:, 0, 0].tolist() == [1, 1, 1] and mask[:, 0, 1].tolist() == [0, 0, 0]
+    rgba = np.zeros((4, 6, 4), np.uint8)
+    rgba[..., 3] = 0  # transparent black: white, as a viewer shows it
+    rgba[0, 0] = (255, 0, 0, 255)  # an opaque red pixel
+    photo = from_array(rgba)
+    assert photo[:, 0, 0].tolist() == [1, 0, 0] and photo[:, 1, 1].tolist() == [1, 1, 1]
+    assert torch.allclose(from_array(np.array([[0.5, 1.04], [-0.03, 0.0]])), torch.tensor([[0.5, 1.0], [0.0, 0.0]]))
+
+
+@pytest.mark.parametrize(("pixels", "words"), [
+    (HWC.astype(np.float64), "float64 values from 0 to 255; floats are read in [0, 1] (0 black, 1 white): divide 8-bit values by 255"),
+    (HWC.astype(np.int32) * 257, "int32 values from 0 to 65535, outside 0–255; expected uint8 (0–255), uint16 (0–65535)"),
+    (HWC.astype(np.int64) - 1, "int64 values from -1 to 254, outside 0–255"),
+    (np.full((4, 4, 3), np.nan), "its float64 values include NaN or infinity"),
+    (np.zeros((4, 4, 3), np.complex64), "complex64 values are not pixels"),
+    (np.zeros((6, 4, 5)), "an array of shape (6, 4, 5) is not a picture; expected (H, W), (H, W, C), (C, H, W) or (1, C, H, W)"),
+    (np.zeros((2, 3, 4, 4)), "an array of shape (2, 3, 4, 4) is not a picture"),
+    (np.zeros((0, 4, 3)), "an array of shape (0, 4, 3) is not a picture"),
+    (np.zeros(5), "an array of shape (5,) is not a picture"),
+], ids=["floats of 0-255", "16-bit as int32", "negative", "nan", "complex", "5 channels", "a batch of 2", "empty", "1-d"])
+def test_pixels_that_are_not_a_picture_are_refused_naming_why(pixels, words):
+    with pytest.raises(ImageError) as refused:
+        from_array(pixels)
+    assert str(refused.value).startswith(f"image: {words}"), str(refused.value)
+
+
+def test_a_pil_image_reads_as_its_file_would(tmp_path):
+    image = Image.new("I;16", (6, 4), 32768)  # 16-bit grey: mid grey, not white
+    torch.testing.assert_close(from_pil(image), torch.full((3, 4, 6), 32768 / 65535), atol=1e-4, rtol=0)
+    transparent = Image.new("RGBA", (6, 4), (0, 0, 0, 0))
+    assert from_pil(transparent).eq(1).all()  # over white
+    Image.fromarray(PHOTO).save(tmp_path / "p.png")
+    with Image.open(tmp_path / "p.png") as opened:
+        torch.testing.assert_close(from_pil(opened), load_image(str(tmp_path / "p.png")))

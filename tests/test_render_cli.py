@@ -167,6 +167,25 @@ def test_the_memory_message_names_the_size_that_fits(painting, tmp_path, monkeyp
     assert not list(tmp_path.glob("*.png"))
 
 
+def test_an_svg_is_checked_for_memory_where_it_holds_each_strokes_paint_as_an_image(painting, tmp_path, monkeypatch):
+    monkeypatch.setattr(memory, "available_bytes", lambda: 2 * 10**9)
+
+    def need(name, suffix):
+        cfg = OmegaConf.merge(OmegaConf.structured(RenderConfig), {"strokes": str(painting(name)), "size": 16384,
+                                                                   "out": str(tmp_path / f"{name}{suffix}")})
+        with pytest.raises(memory.MemoryLimit) as refusal:
+            render(cfg)
+        message = str(refusal.value)
+        assert message.startswith("size=16384: a 16384×10923 render needs about "), message
+        return float(message.split("needs about ")[1].split(" GB")[0])
+
+    assert need("oilpaint", ".svg") > need("oilpaint", ".png")  # the canvas, and every stroke's paint besides
+    assert not (tmp_path / "oilpaint.svg").exists() and not (tmp_path / "oilpaint.png").exists()
+    cfg = OmegaConf.merge(OmegaConf.structured(RenderConfig), {"strokes": str(painting("tape")), "size": 16384,
+                                                               "out": str(tmp_path / "tape.svg")})
+    assert 'width="16384" height="10923"' in render(cfg).read_text()  # vector elements: text at any size
+
+
 def test_an_interrupted_write_leaves_the_old_file_and_no_other(tmp_path):
     (tmp_path / "o.png").write_text("old")
     with pytest.raises(KeyboardInterrupt), atomic_path(tmp_path / "o.png") as temporary:

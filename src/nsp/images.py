@@ -121,6 +121,71 @@ def _tensor(image: Image.Image) -> Tensor:
     return photo.div_(WHITE.get(image.mode, 255)).clamp_(0, 1)
 
 
+# Pixel arrays (nsp.paint from Python): what each dtype's values mean, read by the dtype, never guessed from the values.
+LAYOUTS = "(H, W), (H, W, C), (C, H, W) or (1, C, H, W), C = 1, 2, 3 or 4 (grey, grey + alpha, RGB, RGBA)"
+DTYPES = "uint8 (0–255), uint16 (0–65535), other integers (0–255), bool, or floats in [0, 1]"
+CHANNELS = (1, 2, 3, 4)
+SLACK = 0.1  # floats this far outside [0, 1] (a resampling's overshoot) are clamped; farther are refused
+
+
+def from_pil(image: Image.Image) -> Tensor:
+    """A PIL image -> (3, H, W) float in [0, 1], as :func:`load_image` reads a file: upright as its
+    EXIF orientation says, 16-bit at its true brightness, transparent pixels over white."""
+    with _readable("image"):
+        return _tensor(_resizable(ImageOps.exif_transpose(image)))
+
+
+def from_array(pixels: np.ndarray | Tensor, key: str = "image") -> Tensor:
+    """A numpy array or torch tensor -> (3, H, W) float32 in [0, 1], alpha over white.
+
+    Layouts: :data:`LAYOUTS`; where both ends could be channels ((3, H, 4)), a tensor is read
+    channels first, an array channels last. Values by dtype (:data:`DTYPES`): uint8 / 255,
+    uint16 / 65535, floats as they are. Values outside their dtype's range, or not finite, are
+    refused (:class:`ImageError` naming ``key``), not rescaled.
+    """
+    tensor = isinstance(pixels, Tensor)
+    if tensor:
+        pixels = pixels.detach().cpu()
+        pixels = (pixels.float() if pixels.dtype == torch.bfloat16 else pixels).numpy()
+    else:
+        pixels = np.asarray(pixels)
+    shape = tuple(pixels.shape)
+    if pixels.ndim == 4 and shape[0] == 1:
+        pixels = pixels[0]
+    if pixels.ndim == 2:
+        pixels = pixels[..., None]
+    elif pixels.ndim == 3 and pixels.shape[0] in CHANNELS and (tensor or pixels.shape[-1] not in CHANNELS):
+        pixels = pixels.transpose(1, 2, 0)
+    if pixels.ndim != 3 or pixels.shape[-1] not in CHANNELS or 0 in pixels.shape:
+        raise ImageError(f"{key}: an array of shape {shape} is not a picture; expected {LAYOUTS}")
+    values = torch.from_numpy(_unit(pixels, key))  # (H, W, C)
+    if values.shape[-1] in (2, 4):  # alpha over white
+        values = values[..., :-1] * values[..., -1:] + (1 - values[..., -1:])
+    return values.expand(*values.shape[:2], 3).permute(2, 0, 1).contiguous()
+
+
+def _unit(pixels: np.ndarray, key: str) -> np.ndarray:
+    """(H, W, C) pixels of any dtype -> float32 in [0, 1], read as :data:`DTYPES` says."""
+    kind = pixels.dtype.kind
+    if kind == "b":
+        return pixels.astype(np.float32)
+    if kind not in "uif":
+        raise ImageError(f"{key}: {pixels.dtype} values are not pixels; expected {DTYPES}")
+    if kind == "f" and not np.isfinite(pixels).all():
+        raise ImageError(f"{key}: its {pixels.dtype} values include NaN or infinity; expected {DTYPES}")
+    low, high = pixels.min().item(), pixels.max().item()
+    if kind == "f":
+        if low < -SLACK or high > 1 + SLACK:
+            raise ImageError(f"{key}: {pixels.dtype} values from {low:g} to {high:g}; floats are read in [0, 1] "
+                             "(0 black, 1 white): divide 8-bit values by 255, 16-bit ones by 65535")
+        return pixels.astype(np.float32).clip(0, 1)
+    white = 65535 if pixels.dtype == np.uint16 else 255
+    if low < 0 or high > white:
+        raise ImageError(f"{key}: {pixels.dtype} values from {low} to {high}, outside 0–{white}; expected {DTYPES} "
+                         "(16-bit values as uint16)")
+    return pixels.astype(np.float32) / white
+
+
 def long_side(height: int, width: int, size: int) -> tuple[int, int]:
     """(height, width) scaled so the longer side is ``size``, aspect kept."""
     scale = size / max(height, width)

@@ -39,7 +39,7 @@ def render(cfg: DictConfig) -> Path:
     numpy_before_torch()
     from nsp.colors import parse_color
     from nsp.engine.device import resolve_device
-    from nsp.engine.memory import check_canvas, stroke_cover
+    from nsp.engine.memory import check_render, check_side
     from nsp.io.export import EXTENSIONS, frame_ends, write_painting
     from nsp.io.strokes import load_strokes
 
@@ -49,8 +49,7 @@ def render(cfg: DictConfig) -> Path:
         raise BadInput(f"out={cfg.out} is a folder; expected a file path ending in {', '.join(EXTENSIONS)}")
     if suffix not in EXTENSIONS:
         raise BadInput(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS)}")
-    if cfg.size <= 0:
-        raise BadInput(f"size={cfg.size}: expected a positive number of pixels")
+    check_side(cfg.size)
     device = resolve_device(cfg.device)
     name = cfg.brush.name if cfg.get("brush") else None  # reference .npz files only
     painting = load_strokes(cfg.strokes, brush=name, size=cfg.size)
@@ -58,9 +57,7 @@ def render(cfg: DictConfig) -> Path:
     parse_color(background)
     height, width = painting.size(cfg.size)
     brush = painting.brush
-    if suffix != ".svg":  # an SVG holds no pixels
-        cover = stroke_cover(brush, painting.strokes, height, width)
-        check_canvas(height, width, "size", cover, frames=len(frame_ends(len(painting.strokes))) if suffix == ".gif" else 0)
+    check_render(brush, painting.strokes, height, width, suffix, frames=len(frame_ends(len(painting.strokes))) if suffix == ".gif" else 0)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:

@@ -8,6 +8,7 @@ canvas itself dominates.
 """
 from __future__ import annotations
 
+import numbers
 import os
 
 from torch import Tensor
@@ -15,6 +16,7 @@ from torch import Tensor
 from nsp.brushes.base import Brush
 from nsp.engine.canvas import CHUNK_PIXELS, chunks
 from nsp.errors import BadInput
+from nsp.text import shown
 
 # Peak RSS over the pre-render baseline (ru_maxrss) of write_painting on the CPU:
 CANVAS_BYTES = 37  # per canvas pixel, no strokes: PNG 38.5, 36.6, 36.1 B/px at 1000, 2000, 4000 px; GIF 25–26
@@ -27,6 +29,9 @@ STYLE_BYTES = 5000  # per style.size pixel of the photo in full mode (VGG-19 fea
 # Training on the CPU (`python -m nsp.train`, 32 px): 128 -> 1024 strokes a batch added 0.28 GB, 300 B per stroke pixel.
 BATCH_BYTES = 300  # per pixel of each stroke of a batch trained on the CPU
 SET_BYTES = 16  # per pixel of each held-out stroke: its foreground and alpha, float32
+# An SVG of a brush whose paint has no vector form holds each stroke's paint as an image: estimated, not measured,
+IMAGE_BYTES = 20  # per pixel of every stroke's box: its colour and alpha kept as float32 till encoded (16 B), a PNG of it
+MIN_SIDE, MAX_SIDE = 16, 10**9  # a render's long side, in pixels: smaller shows nothing, larger fits no machine
 
 
 class MemoryLimit(BadInput):
@@ -43,6 +48,30 @@ def available_bytes() -> int:
     except OSError:
         pass
     return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def check_side(size: object, key: str = "size") -> int:
+    """``size``, a render's long side, as an int; :class:`BadInput` naming ``key`` for one that is not
+    an integer from :data:`MIN_SIDE` to :data:`MAX_SIDE` (a bool, a float, a string are refused)."""
+    if not isinstance(size, numbers.Integral) or isinstance(size, bool) or not MIN_SIDE <= size <= MAX_SIDE:
+        value = "an integer of over 39 digits" if isinstance(size, numbers.Integral) and abs(size) >= 10**39 else shown(size)
+        raise BadInput(f"{key}={value}: expected a whole number of pixels from {MIN_SIDE} to {MAX_SIDE}")
+    return int(size)
+
+
+def check_render(brush: Brush, strokes: Tensor, height: int, width: int, suffix: str = ".png", key: str = "size",
+                 frames: int = 0) -> None:
+    """Raise :class:`MemoryLimit` if strokes (N, d) written as a ``height``×``width`` ``suffix`` file
+    (.png, .gif with ``frames`` frames, .svg) will not fit in memory. An SVG holds no pixels, but
+    for a brush whose paint has no vector form (``svg_painted``): then it is drawn as a PNG is, and
+    every stroke's paint is kept as an image until it is encoded."""
+    if suffix == ".svg" and not brush.svg_painted:
+        return  # its elements are text, whatever the size
+    cover = stroke_cover(brush, strokes, height, width)
+    images = 0.0
+    if suffix == ".svg" and len(strokes):
+        images = IMAGE_BYTES * float(brush.box_area(strokes, height, width).sum()) / (height * width)
+    check_canvas(height, width, key, cover, frames=frames, pixel_bytes=CANVAS_BYTES + images)
 
 
 def stroke_cover(brush: Brush, strokes: Tensor, height: int, width: int) -> float:

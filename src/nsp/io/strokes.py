@@ -25,6 +25,7 @@ from nsp.text import shown
 FORMAT, VERSION = "nsp-strokes", 1
 NPZ_ARRAYS = ("x_ctt", "x_color", "x_alpha")  # the reference's shape-and-position, colour and alpha arrays
 NPZ_MAX_VALUES = 50_000_000  # per array: a million strokes of the widest brush, 400 MB as float64
+MAX_CANVAS = 10**9  # pixels a side: the canvas sets only the aspect, but a larger one is no painting's
 NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
 
 
@@ -124,6 +125,9 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
             and isinstance(canvas.get("background"), str)):
         expected = '"canvas": {"width": pixels, "height": pixels, "background": colour}'
         raise StrokeFileError(f"strokes={path} is malformed: expected {expected}")
+    if max(canvas["width"], canvas["height"]) > MAX_CANVAS:
+        raise StrokeFileError(f"strokes={path}: its canvas (width {_shown_size(canvas['width'])}, height "
+                              f"{_shown_size(canvas['height'])}) is no painting's; expected sides from 1 to {MAX_CANVAS} pixels")
     try:
         parse_color(canvas["background"])
     except ValueError:
@@ -160,6 +164,11 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
     except ValueError as error:
         raise StrokeFileError(f"strokes={path}: its brush cannot be used: {error}") from None
     return StrokeFile(spec, values, canvas["height"], canvas["width"], canvas["background"])
+
+
+def _shown_size(value: int) -> str:
+    """A canvas side as a message quotes it: its digits, or their count past 12 (JSON's are at most 4300)."""
+    return str(value) if value < 10**12 else f"a {len(str(value))}-digit number"
 
 
 def _is_size(value) -> bool:
