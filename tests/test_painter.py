@@ -16,7 +16,7 @@ from nsp.images import load_image, resize
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
 from nsp.painter.faces import Box, find_faces
 from nsp.painter.losses import PaintLoss
-from nsp.painter.optimize import RMSprop
+from nsp.painter.optimize import RMSprop, bias_corrected
 from nsp.painter.painter import Callback, Painter
 from nsp.painter.palette import Palette
 from nsp.painter.placement import Forms, largest_errors, place_strokes
@@ -355,16 +355,16 @@ def test_only_trainable_parameters_move():
 def test_the_painters_rmsprop_steps_as_torch_optim_rmsprop(corrected):
     start = torch.rand(6, 5, generator=torch.Generator().manual_seed(0))
     ours, theirs = start.clone().requires_grad_(), start.clone().requires_grad_()
-    mine = RMSprop([ours], lr=0.01, corrected=corrected)
-    torchs = torch.optim.RMSprop([theirs], lr=0.01)
-    # the correction as a schedule: lr·√(1 − α^t) at step t
-    schedule = torch.optim.lr_scheduler.LambdaLR(torchs, lambda t: (1 - 0.99 ** (t + 1)) ** 0.5 if corrected else 1)
-    for _ in range(20):
+    mine, torchs = RMSprop([ours], lr=0.01), torch.optim.RMSprop([theirs], lr=0.01)
+    if corrected:  # a flag on ours, a step pre-hook on torch's
+        mine, torchs = bias_corrected(mine), bias_corrected(torchs)
+    for step in range(20):
         for x, optimizer in ((ours, mine), (theirs, torchs)):
             optimizer.zero_grad()
             ((x - 0.3) ** 4).sum().backward()
             optimizer.step()
-        schedule.step()
+        if step == 0:  # RMSprop's first step is lr/√(1 − α) = 10·lr a parameter; corrected, lr
+            assert abs(float((ours - start).abs().max()) - (0.01 if corrected else 0.1)) < 1e-5
     assert torch.allclose(ours, theirs, atol=1e-6) and not torch.allclose(ours, start, atol=1e-2)
 
 

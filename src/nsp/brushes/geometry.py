@@ -121,10 +121,14 @@ def _reach(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, 
 
 
 def _newton_step(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper) -> Tensor:
-    """One safeguarded Newton step on φ(t) = |B(t) − p| − taper·t from t (P, N), kept in [0, 1].
+    """One safeguarded Newton step on φ(t) = |B(t) − p| − taper·t from t (P, N), kept in [0, 1],
+    carrying the implicit-function gradient dt/dθ = −(∂φ'/∂θ) / φ'' of the minimum it refines.
 
     The step is taken only where it lowers φ, so a pixel on the curve (where |B − p| has a kink) or
-    an inflection of φ never moves to a worse disc.
+    an inflection of φ never moves to a worse disc. The gradient does not depend on whether it was:
+    where the step lowers φ by no more than rounding, t is already the minimum, and the minimum moves
+    with θ all the same (a gradient that came and went with a comparison of two equal numbers
+    differed from one CPU to another). A t at an end (0 or 1) stays there: no gradient.
     """
     taper = None if taper is None else taper[:, None]
     qx = p0[:, :1] + t * (2 * a[:, :1] + t * b[:, :1]) - px
@@ -138,11 +142,13 @@ def _newton_step(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Te
         # Step from an end only when φ falls inwards (a growing disc reaching past the end).
         s = slope.detach()
         movable = ((t > 0) & (t < 1)) | ((t <= 0) & (s < 0)) | ((t >= 1) & (s > 0))
-    stepped = (t - slope / curvature.clamp(min=1e-3)).clamp(0, 1)
-    with torch.no_grad():
+        convex = curvature > 1e-3
+        stepped = (t - s / curvature.clamp(min=1e-3)).clamp(0, 1)
         better = _reach(stepped, p0, a, b, px, py, taper) < norm - (0 if taper is None else taper * t)  # φ(t)
-        accept = movable & (curvature > 1e-3) & better
-    return torch.where(accept, stepped, t)
+        t = torch.where(movable & convex & better, stepped, t)
+        moves = convex & (t > 0) & (t < 1)
+    step = torch.where(moves, slope / curvature.clamp(min=1e-3), 0)
+    return t - (step - step.detach())
 
 
 def bezier_nearest(

@@ -46,6 +46,25 @@ class RMSprop:
                 p.addcdiv_(p.grad, v.sqrt().add_(self.eps), value=-lr)
 
 
+def bias_corrected(optimizer: Optimizer) -> Optimizer:
+    """``optimizer`` with RMSprop's first steps bias-corrected, lr_t = lr·√(1 − α^t): this module's
+    :class:`RMSprop` by its flag, ``torch.optim.RMSprop`` by a step pre-hook on its learning rates
+    (the same steps); any other optimizer as it is. Uncorrected, the first steps on a finished
+    painting are up to 1/√(1 − α) = 10× lr and scatter every stroke."""
+    if isinstance(optimizer, RMSprop):
+        optimizer.corrected = True
+    elif isinstance(optimizer, torch.optim.RMSprop):
+        rates, step = [group["lr"] for group in optimizer.param_groups], [0]
+
+        def correct(opt: torch.optim.Optimizer, args: tuple, kwargs: dict) -> None:
+            step[0] += 1
+            for group, lr in zip(opt.param_groups, rates):
+                group["lr"] = lr * (1 - group["alpha"] ** step[0]) ** 0.5
+
+        optimizer.register_step_pre_hook(correct)
+    return optimizer
+
+
 def optimize_strokes(
     x: Tensor,
     optimizer: Optimizer,

@@ -26,7 +26,7 @@ from nsp.brushes import Brush
 from nsp.colors import hex_color, parse_color
 from nsp.config import MODES
 from nsp.engine import paint_canvas
-from nsp.painter.optimize import Optimizer, RMSprop, optimize_strokes
+from nsp.painter.optimize import Optimizer, bias_corrected, optimize_strokes
 from nsp.style import Recoloring, StyleLoss
 from nsp.style.recolor import ColorSettings, recolor, shared_map
 
@@ -80,9 +80,7 @@ def stylize(
     background = canvas_color(recoloring, background)
     target = recoloring(target, dim=0)[None]  # the photo in the style's colours
     x.requires_grad_(True)
-    opt = optimizer([x])
-    if isinstance(opt, RMSprop):  # on a finished painting, uncorrected first steps would scatter every stroke
-        opt.corrected = True
+    opt = bias_corrected(optimizer([x]))  # on a finished painting
     edge = brush.softness if softness is None else softness
 
     def objective() -> tuple[Tensor, dict[str, Tensor]]:
