@@ -71,18 +71,44 @@ def test_a_run_refused_at_start_leaves_no_dir_that_looks_like_a_run(tmp_path):
 def test_a_named_dir_is_claimed_so_two_runs_started_together_never_share_it(tmp_path):
     import os
 
-    with initialize_config_dir(str(ROOT / "conf" / "paint"), version_base="1.3"):
-        cfg = compose("paint", overrides=[f"hydra.run.dir={tmp_path / 'run'}"], return_hydra_config=True)
-    RunDirs().on_run_start(copy.deepcopy(cfg))  # this process takes it
+    def named(path: Path):
+        with initialize_config_dir(str(ROOT / "conf" / "paint"), version_base="1.3"):
+            return compose("paint", overrides=[f"hydra.run.dir={path}"], return_hydra_config=True)
+
+    cfg = named(tmp_path / "run")
+    RunDirs().on_run_start(copy.deepcopy(cfg))  # this process takes it, for the rest of its life
     assert (tmp_path / "run" / ".nsp-run").read_text() == str(os.getpid())
     with pytest.raises(SystemExit) as refused:  # a second run while the first still goes
         RunDirs().on_run_start(copy.deepcopy(cfg))
     assert refused.value.code == 2
-    (tmp_path / "run" / ".nsp-run").write_text("999999999")  # a run that ended before writing anything
-    RunDirs().on_run_start(copy.deepcopy(cfg))
+    for pid in ("1", str(os.getppid()), "999999999"):  # a container's pid 1, a live process that is no run, one that ended
+        (tmp_path / pid).mkdir()
+        (tmp_path / pid / ".nsp-run").write_text(pid)  # left by a run that has ended: nothing holds it
+        RunDirs().on_run_start(named(tmp_path / pid))
+        assert (tmp_path / pid / ".nsp-run").read_text() == str(os.getpid())
+        assert [p.name for p in (tmp_path / pid).iterdir()] == [".nsp-run"]
     HydraConfig.instance().cfg = None
-    assert (tmp_path / "run" / ".nsp-run").read_text() == str(os.getpid())
-    assert [p.name for p in (tmp_path / "run").iterdir()] == [".nsp-run"]
+
+
+def test_a_claim_is_free_once_its_process_has_ended_whatever_its_pid(tmp_path):
+    """The claim is a lock the kernel releases when its process ends (even by ``kill -9``), not a
+    process id to be checked: a pid reused, or 1 in a container, does not hold a dir forever."""
+    run = tmp_path / "run"
+    run.mkdir()
+    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, os, sys, time\n"
+                               f"f = os.open({str(run / '.nsp-run')!r}, os.O_RDWR | os.O_CREAT)\n"
+                               "fcntl.flock(f, fcntl.LOCK_EX); os.write(f, b'1'); print('held', flush=True); time.sleep(300)"],
+                              stdout=subprocess.PIPE, text=True)
+    assert holder.stdout.readline() == "held\n"
+    refused = command("nsp.paint", *TINY_PAINT, f"hydra.run.dir={run}")  # refused before torch loads
+    assert refused.wait(timeout=120) == 2
+    assert refused.stderr.read().strip() == f"error: hydra.run.dir={run} is taken by another run that is still going; name a new dir"
+    holder.kill()
+    holder.wait()
+    assert (run / ".nsp-run").read_text() == "1"
+    painting = command("nsp.paint", *TINY_PAINT, f"hydra.run.dir={run}")
+    assert painting.wait(timeout=300) == 0, painting.stderr.read()
+    assert len(load_strokes(run / "strokes.json").strokes) == 8
 
 
 def test_of_two_paintings_started_together_into_one_named_dir_one_runs_and_one_is_refused(tmp_path):

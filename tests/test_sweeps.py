@@ -136,3 +136,34 @@ def test_hydra_mode_on_the_command_line_still_makes_a_sweep(tmp_path):
                            f"hydra.sweep.dir={tmp_path}"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert sorted(metrics(job)["strokes"] for job in tmp_path.iterdir() if job.is_dir()) == [8, 8]
+
+
+def test_a_sweep_resumes_with_its_overrides_in_another_order_but_not_its_swept_keys(tmp_path):
+    """Hydra numbers a sweep's jobs (and so names their dirs) in the order of its swept keys; the other
+    overrides may come in any order."""
+    assert sweep("nsp.paint", tmp_path, "seed=0,1", "strokes=4,8", *TINY_PAINT[1:]).returncode == 0
+    again = sweep("nsp.paint", tmp_path, *reversed(TINY_PAINT[1:]), "seed=0,1", "strokes=4,8")
+    assert again.returncode == 0, again.stderr
+    assert f"resuming the sweep in {tmp_path}: 4 completed jobs kept, the rest run" in again.stdout
+    swapped = sweep("nsp.paint", tmp_path, "strokes=4,8", "seed=0,1", *TINY_PAINT[1:])
+    assert swapped.returncode == 2
+    assert swapped.stderr.strip() == (f"error: hydra.sweep.dir={tmp_path} holds this sweep with its swept keys in another "
+                                      "order (seed, strokes), which numbers its jobs otherwise; give them in that order to resume it")
+    assert [metrics(tmp_path / f"{n}_astronaut_oilpaint")["strokes"] for n in range(4)] == [4, 8, 4, 8]
+
+
+def test_a_resumed_training_job_whose_last_checkpoint_is_corrupt_says_so_in_one_line(tmp_path):
+    steps = ["renderer=dcgan", "brush=tape", "seed=0", *TINY_TRAIN]
+    assert sweep("nsp.train", tmp_path, *steps).returncode == 0
+    job = tmp_path / "0_dcgan_tape"
+    (job / "metrics.json").write_text(json.dumps({"status": "interrupted"}))  # as a stopped job leaves it: it resumes
+    last = job / "checkpoints" / "last.ckpt"
+    damaged = bytearray(last.read_bytes())
+    damaged[len(damaged) // 2] ^= 0xFF  # one byte of its weights, as a failing disk or a bad copy leaves it
+    last.write_bytes(damaged)
+    again = sweep("nsp.train", tmp_path, *steps)
+    assert again.returncode == 1 and "Traceback" not in again.stderr and "diverged" not in again.stderr
+    error = metrics(job)["error"]
+    assert error.startswith(f"ckpt_path={last} is corrupt: its part archive/data/") and "\n" not in error
+    assert error.endswith("is not as it was saved (a checksum differs); resume from another checkpoint, or remove it to train from the start")
+    assert f"error: 0_dcgan_tape: {error}" in again.stderr.splitlines()

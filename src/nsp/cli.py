@@ -27,6 +27,7 @@ import re
 import shutil
 import signal
 import sys
+import threading
 import traceback
 from contextlib import contextmanager, suppress
 from pathlib import Path
@@ -59,7 +60,7 @@ def in_sweep() -> bool:
     return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
 
 
-CLAIM = ".nsp-run"  # in a dir named by hydra.run.dir: the process id of the run that took it
+CLAIM = ".nsp-run"  # in a dir named by hydra.run.dir: locked by the run that took it (_take), its process id
 STOPPED = ".interrupted"  # in a sweep's dir: Ctrl-C or SIGTERM reached the sweep; no further job starts
 
 
@@ -114,7 +115,8 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
     if stop is not None and cfg.get("ckpt_path", "") is None and (last := out / "checkpoints" / "last.ckpt").is_file():
         cfg.ckpt_path = str(last)  # an interrupted training job of a sweep run again: on from where it stopped
     try:
-        return work(cfg)
+        with _heeding(stop):
+            return work(cfg)
     except (BadInput, InstantiationException, RunFailed, OSError) as error:  # a value refused, a run that could not go on
         if isinstance(error, OSError) and error.errno not in REFUSED_WRITES:
             raise
@@ -143,33 +145,45 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
 
 class Sweeps(Callback):
     """How a multirun ends: with one line and :data:`FAILED` when jobs recorded failures, with one
-    line and :data:`INTERRUPTED` after Ctrl-C or SIGTERM.
+    line and :data:`INTERRUPTED` after Ctrl-C or SIGTERM; and, as it starts, a line saying how its
+    jobs run (:func:`launcher`).
 
-    Under the joblib launcher the jobs run in worker processes: Ctrl-C reaches them from the terminal
-    and each keeps what it had, while this process waits for them instead of killing them mid-save
-    (SIGTERM, sent to this process alone, is passed on to them as Ctrl-C).
+    Under the basic launcher the jobs run one at a time in this process, and a signal interrupts the
+    job itself. Under joblib and ``submitit_local`` they run in worker processes, and this process
+    waits for them instead of killing them mid-save: Ctrl-C reaches each worker from the terminal,
+    and SIGTERM, sent to this process alone, is written into the sweep's :data:`STOPPED` file, which
+    each working job watches and takes as its Ctrl-C (:func:`run_job`). No further job starts. Under
+    ``submitit_local`` this process ignores Ctrl-C from the launch on, so that submitit's process
+    between it and each job (which would kill its job a second after a Ctrl-C) inherits that.
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
-        if "joblib" not in str(config.hydra.launcher.get("_target_", "")):
+        global _sweep_process
+        how = launcher(config.hydra.launcher)
+        if how == "basic":
             print("the jobs run one at a time, in this process (hydra/launcher=joblib: side by side)", flush=True)
-            return  # Ctrl-C interrupts the job itself
-        logging.getLogger(JOBLIB).addFilter(_how_jobs_run)
-        stop = Path(config.hydra.sweep.dir) / STOPPED
+            return  # Ctrl-C and SIGTERM interrupt the job itself
+        if how == "submitit_slurm":
+            print(f"the jobs run as Slurm jobs, through submitit; this command waits for them (their output: "
+                  f"{config.hydra.launcher.submitit_folder.replace('%j', '<job id>')})", flush=True)
+            return
+        if how == "joblib":
+            logging.getLogger(JOBLIB).addFilter(_how_jobs_run)  # its own line says how many side by side
+        elif how == "submitit_local":
+            print(f"the jobs run side by side, each a process of its own (submitit's); their output: "
+                  f"{config.hydra.launcher.submitit_folder.replace('%j', '<job id>')}", flush=True)
+        else:
+            print(f"the jobs run as {config.hydra.launcher.get('_target_')} runs them", flush=True)
+        stop, _sweep_process = Path(config.hydra.sweep.dir) / STOPPED, os.getpid()
 
         def wait(signum: int, frame: Any) -> None:
             stop.parent.mkdir(parents=True, exist_ok=True)
-            stop.touch()
-            if signum == signal.SIGTERM:  # to the jobs alone: a script that started the sweep is not stopped
-                signal.signal(signal.SIGINT, signal.SIG_IGN)
-                workers = _children()
-                for pid in workers if workers is not None else []:
-                    with suppress(ProcessLookupError):
-                        os.kill(pid, signal.SIGINT)
-                if workers is None:  # no /proc: the whole process group, as Ctrl-C in a terminal
-                    os.killpg(os.getpgrp(), signal.SIGINT)
+            with open(stop, "a") as told:  # Ctrl-C reached the workers too; SIGTERM only this process: pass it on
+                told.write("SIGTERM\n" if signum == signal.SIGTERM else "")
+            if _working:  # the job runs in this process (joblib's n_jobs=1): it stops itself
+                raise KeyboardInterrupt
 
-        signal.signal(signal.SIGINT, wait)
+        signal.signal(signal.SIGINT, signal.SIG_IGN if how == "submitit_local" else wait)
         signal.signal(signal.SIGTERM, wait)
 
     def on_multirun_end(self, config: DictConfig, **kwargs: Any) -> None:
@@ -198,18 +212,82 @@ def _how_jobs_run(record: logging.LogRecord) -> bool:
     return True
 
 
-def _children() -> list[int] | None:
-    """The ids of this process's children (the launcher's workers), from Linux's ``/proc``; None
-    where that cannot be read."""
-    me, children = os.getpid(), []
+LAUNCHERS = {  # Hydra's launchers, by their class, as hydra/launcher= names them
+    "hydra._internal.core_plugins.basic_launcher.BasicLauncher": "basic",
+    "hydra_plugins.hydra_joblib_launcher.joblib_launcher.JoblibLauncher": "joblib",
+    "hydra_plugins.hydra_submitit_launcher.submitit_launcher.LocalLauncher": "submitit_local",
+    "hydra_plugins.hydra_submitit_launcher.submitit_launcher.SlurmLauncher": "submitit_slurm",
+}
+
+
+def launcher(node: DictConfig) -> str:
+    """The name of a sweep's launcher (``basic``, ``joblib``, ``submitit_local``, ``submitit_slurm``),
+    from its config node (``hydra.launcher``); another launcher's class."""
+    target = str(node.get("_target_", ""))
+    return LAUNCHERS.get(target, target)
+
+
+def side_by_side() -> bool:
+    """Whether this is a job of a sweep whose jobs run side by side on this machine: joblib's
+    processes (``n_jobs`` other than 1), or each job a process of its own (``submitit_local``)."""
+    if not in_sweep():
+        return False
+    node = HydraConfig.get().launcher
+    return launcher(node) == "submitit_local" or (launcher(node) == "joblib" and node.get("n_jobs", 1) != 1)
+
+
+RANKS = ("RANK", "LOCAL_RANK", "NODE_RANK", "SLURM_PROCID")  # torchrun's, Lightning's, Slurm's (each task)
+
+
+def first_rank() -> bool:
+    """Whether this process is the first (rank 0) of a distributed run, or no such run's: Lightning
+    starts the other processes of a node by running the command again with ``LOCAL_RANK`` set, each
+    node of a multi-node run sets ``NODE_RANK``, and Slurm starts every task of a job itself
+    (``SLURM_PROCID``). The others write no run's files and say nothing the first does not."""
+    return all(os.environ.get(name, "0").strip() in ("", "0") for name in RANKS)
+
+
+_sweep_process: int | None = None  # the process of the sweep's command, once it has started its workers' launcher
+_working = False  # a job's work runs in this process
+
+
+@contextmanager
+def _heeding(stop: Path | None) -> Iterator[None]:
+    """While a job of a sweep works: a SIGTERM its command was sent (:class:`Sweeps`) reaches the job
+    as Ctrl-C. In the command's own process its handler interrupts the job; in a worker process (a
+    joblib or submitit one) a thread reads the sweep's :data:`STOPPED` file every 0.2 s and sends this
+    process's main thread SIGINT for each SIGTERM written there (training stops at the end of its
+    step on the first, at once on a second, as with Ctrl-C)."""
+    global _working
+    if stop is None or launcher(HydraConfig.get().launcher) in ("basic", "submitit_slurm") or not hasattr(signal, "pthread_kill"):
+        yield
+        return
+    if os.getpid() == _sweep_process:
+        _working = True
+        try:
+            yield
+        finally:
+            _working = False
+        return
+    if signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, signal.SIG_DFL, None):  # ignored: as the command (Sweeps) left it
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # for submitit_local; SIGINT must not kill the job either
+    done, main = threading.Event(), threading.main_thread().ident
+
+    def watch() -> None:
+        heard = 0
+        while not done.wait(0.2):
+            with suppress(OSError):
+                if (told := stop.read_text().count("SIGTERM")) > heard:
+                    heard = told
+                    signal.pthread_kill(main, signal.SIGINT)
+
+    watcher = threading.Thread(target=watch, name="nsp-sweep-stop", daemon=True)
+    watcher.start()
     try:
-        for stat in Path("/proc").glob("[0-9]*/stat"):
-            with suppress(OSError, ValueError, IndexError):  # a process that ended meanwhile
-                if int(stat.read_text().rsplit(")", 1)[1].split()[1]) == me:  # the field after the name: state, ppid
-                    children.append(int(stat.parent.name))
-    except OSError:
-        return None
-    return children if Path("/proc/self/stat").exists() else None
+        yield
+    finally:
+        done.set()
+        watcher.join()
 
 
 def _status(path: Path) -> str | None:
@@ -226,7 +304,9 @@ class RunDirs(Callback):
     :data:`BAD_INPUT`, before anything is written. A training run resuming from a
     checkpoint inside its own dir (``ckpt_path=DIR/checkpoints/last.ckpt``) continues in place, and a
     sweep run again with the same command line into its own ``hydra.sweep.dir`` resumes there
-    (:func:`run_job`). A named dir is claimed for the process (:func:`_take`) while it runs.
+    (:func:`run_job`). A named dir is claimed for the process (:func:`_take`) while it runs. The other
+    processes of a distributed run (:func:`first_rank`: Lightning's DDP, the tasks of a Slurm job) join
+    the dir of the first, which claims it: none is refused, nor given a dir of its own.
     """
 
     def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
@@ -241,6 +321,10 @@ class RunDirs(Callback):
         path = Path(OmegaConf.select(config, key))
         if config.get("ckpt_path") and path.resolve() in Path(config.ckpt_path).resolve().parents:
             return  # resuming in place
+        if not first_rank():  # another process of a distributed run: the first claims the dir, this one joins it
+            with suppress(OSError):
+                path.mkdir(parents=True, exist_ok=True)
+            return
         try:
             if any(o.split("=", 1)[0].lstrip("+~") == key for o in config.hydra.overrides.hydra):
                 RunDirs._named(config, path, key)
@@ -255,6 +339,10 @@ class RunDirs(Callback):
     def _named(config: DictConfig, path: Path, key: str) -> None:
         held = path.is_dir() and any(not p.name.startswith(".") and p.suffix != ".log" for p in path.iterdir())  # .hydra, claims
         sweep = key == "hydra.sweep.dir"
+        if held and sweep and (order := _other_order(path, config)):
+            print(f"error: {key}={path} holds this sweep with its swept keys in another order ({order}), which numbers "
+                  "its jobs otherwise; give them in that order to resume it", file=sys.stderr)
+            sys.exit(BAD_INPUT)
         if held and not (sweep and _same_sweep(path, config)):
             print(f"error: {key}={path} already holds {'another sweep' if sweep else 'a run'}; name a new dir, or remove "
                   "that one first" + (" (the same command again resumes its own sweep)" if sweep else ""), file=sys.stderr)
@@ -284,36 +372,66 @@ class RunDirs(Callback):
             OmegaConf.update(config, key, str(fresh))
 
 
-def _same_sweep(path: Path, config: DictConfig) -> bool:
-    """Whether ``path`` holds a sweep of the same command line as ``config``'s (its ``multirun.yaml``)."""
+def _planned(path: Path) -> list[str] | None:
+    """The overrides of the sweep in ``path`` (its ``multirun.yaml``); None where there is none."""
     try:
-        return list(OmegaConf.load(path / "multirun.yaml").hydra.overrides.task) == list(config.hydra.overrides.task)
+        return list(OmegaConf.load(path / "multirun.yaml").hydra.overrides.task)
     except (OSError, yaml.YAMLError, OmegaConfBaseException, AttributeError):
-        return False
+        return None
+
+
+def _swept(overrides: Iterable[str]) -> list[str]:
+    """The overrides among ``overrides`` that sweep (``seed=0,1``, ``range(3)``): in Hydra's order of
+    them it numbers the jobs. One it cannot read counts as one."""
+    parser, swept = OverridesParser.create(), []
+    for override in overrides:
+        with suppress(OverrideParseException):
+            if not parser.parse_override(override).is_sweep_override():
+                continue
+        swept.append(override)
+    return swept
+
+
+def _same_sweep(path: Path, config: DictConfig) -> bool:
+    """Whether ``path`` holds a sweep of the same command line as ``config``'s: the same overrides,
+    in any order, those that sweep in the same order (which numbers the jobs, and so their dirs)."""
+    before, now = _planned(path), list(config.hydra.overrides.task)
+    return before is not None and sorted(before) == sorted(now) and _swept(before) == _swept(now)
+
+
+def _other_order(path: Path, config: DictConfig) -> str | None:
+    """Where ``path`` holds the sweep of ``config``'s overrides but with those that sweep in another
+    order: their keys in the order that sweep gave them, for the line that says so."""
+    before, now = _planned(path), list(config.hydra.overrides.task)
+    if before is None or sorted(before) != sorted(now) or _swept(before) == _swept(now):
+        return None
+    return ", ".join(override.split("=", 1)[0] for override in _swept(before))
+
+
+_CLAIMS: list[int] = []  # the claim files this process holds locked, open for the rest of its life
 
 
 def _take(path: Path) -> bool:
-    """Claim a dir the user named for this process: its :data:`CLAIM` file, linked into place only
-    if absent (so of two runs started together, one gets it) or left by a process that has ended."""
-    from nsp.files import running
-
-    claim, mine = path / CLAIM, path / f"{CLAIM}.{os.getpid()}"
-    mine.write_text(str(os.getpid()))
+    """Claim a dir the user named for this process: an exclusive ``flock`` on its :data:`CLAIM` file,
+    held for the rest of the process's life and released by the kernel when it ends, however it ends.
+    So a claim is free once its process has gone, whatever process ids say (a container's pid 1, a
+    pid since reused, another pid namespace); of two runs started together, one gets the lock. The
+    file names its holder's pid, for people to read, and stays: the lock is on that file. Where the
+    filesystem cannot lock (or the system has no ``fcntl``), the dir is not claimed."""
     try:
-        for _ in range(2):
-            try:
-                os.link(mine, claim)  # atomic, and the claim holds its process id from the start
-                return True
-            except FileExistsError:
-                try:
-                    if running(int(claim.read_text())):
-                        return False
-                except (ValueError, OSError):  # it ended (or died) before its run began
-                    pass
-                claim.unlink(missing_ok=True)
-        return False
-    finally:
-        mine.unlink(missing_ok=True)
+        import fcntl
+    except ImportError:
+        return True
+    claim = os.open(path / CLAIM, os.O_RDWR | os.O_CREAT, 0o644)  # not inherited by the programs this one runs
+    try:
+        fcntl.flock(claim, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as error:
+        os.close(claim)
+        return error.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES)  # held; else: cannot lock here
+    os.ftruncate(claim, 0)
+    os.write(claim, str(os.getpid()).encode())
+    _CLAIMS.append(claim)
+    return True
 
 
 def quote_text(argv: list[str], keys: Iterable[str], sweep: bool = False) -> list[str]:
@@ -446,7 +564,7 @@ def _unmade_run(out: Path) -> None:
     """A single run refused a value before its work began: its default (time-stamped) dir goes, if
     it holds nothing but what Hydra put there (``.hydra/``, the log), so nothing looks like a run. A
     dir the user named stays: it may have been theirs before."""
-    if not _given("hydra.run.dir") and out.is_dir() and all(p.name == ".hydra" or p.suffix == ".log" for p in out.iterdir()):
+    if first_rank() and not _given("hydra.run.dir") and out.is_dir() and all(p.name == ".hydra" or p.suffix == ".log" for p in out.iterdir()):
         shutil.rmtree(out)
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import MISSING, DictConfig
 
-from nsp.cli import INTERRUPTED, command, in_sweep, kept, program, run_job, sweeps
+from nsp.cli import INTERRUPTED, command, in_sweep, kept, program, run_job, side_by_side, sweeps
 from nsp.config import BrushConfig
 from nsp.painter.ahead import FilesAhead
 from nsp.painter.schema import PaintConfig, follows_checkpoint, photo_side, searches_faces  # config only: no torch
@@ -52,8 +52,8 @@ def main(cfg: DictConfig, early: FilesAhead | None = None) -> float | None:
 
     from nsp.painter.run import paint
 
-    if cfg.threads is None and in_sweep() and HydraConfig.get().launcher.get("n_jobs", 1) != 1:
-        cfg.threads = 1  # the joblib launcher runs the sweep's jobs side by side, a core each
+    if cfg.threads is None and side_by_side():
+        cfg.threads = 1  # the sweep's jobs run side by side (joblib, submitit_local), a core each
     if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits, renderer_painting)
         if cfg.threads:
             torch.set_num_threads(cfg.threads)

@@ -9,6 +9,7 @@ import math
 import signal
 import time
 import warnings
+import zipfile
 from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Iterator, Sequence
@@ -21,7 +22,7 @@ from pytorch_lightning.callbacks import Callback, LearningRateMonitor, ModelChec
 from pytorch_lightning.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 
-from nsp.errors import RunFailed
+from nsp.errors import BadInput, RunFailed
 from nsp.files import atomic_path
 from nsp.files import write_json
 from nsp.renderers.checkpoint import check_checkpoint
@@ -142,8 +143,25 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
     check(cfg)
     if cfg.ckpt_path is not None:
         check_checkpoint(cfg.ckpt_path, OmegaConf.to_container(cfg.renderer, resolve=True, enum_to_str=True), cfg.brush.name)
+        check_whole(cfg.ckpt_path)
     with quiet_lightning():
         return _fit(cfg, callbacks)
+
+
+def check_whole(path: str | Path) -> None:
+    """Raise :class:`~nsp.errors.BadInput` where checkpoint ``path`` reads but its bytes are not those
+    saved: torch writes a checkpoint as a zip archive with a checksum (CRC-32) per part, which
+    ``torch.load`` does not check, so a damaged file may load as weights that are not finite, or
+    wrong, and a resumed run then fails as if it had diverged."""
+    advice = "resume from another checkpoint, or remove it to train from the start"
+    try:
+        with zipfile.ZipFile(path) as archive:
+            damaged = archive.testzip()  # the first part whose bytes fail their checksum
+    except (zipfile.BadZipFile, OSError, EOFError, ValueError, RuntimeError) as error:  # zlib's; a part cut short
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise BadInput(f"ckpt_path={path} is corrupt ({reason}); {advice}") from None
+    if damaged:
+        raise BadInput(f"ckpt_path={path} is corrupt: its part {damaged} is not as it was saved (a checksum differs); {advice}")
 
 
 def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
