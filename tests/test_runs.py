@@ -14,11 +14,11 @@ import pytest
 import torch
 from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
-from omegaconf import read_write
+from omegaconf import OmegaConf, read_write
 from PIL import Image
 from test_training import compose_train
 
-from nsp.cli import INTERRUPTED, RunDirs, quote_text
+from nsp.cli import FAILED, INTERRUPTED, RunDirs, quote_text, run_job
 from nsp.io.strokes import load_strokes
 from nsp.painter.schema import PaintConfig  # noqa: F401  (registers ``paint_schema``)
 from nsp.renderers.checkpoint import check_checkpoint
@@ -262,6 +262,29 @@ def test_a_checkpoint_that_cannot_be_resumed_is_one_line(tmp_path):
         assert "\n" not in str(error.value)
     with pytest.raises(ValueError, match="holds renderer=dcgan brush=tape model.size=32; this run is renderer=dual brush=tape"):
         check_checkpoint(good, {"name": "dual", "size": 32}, "tape")
+
+
+@pytest.mark.parametrize("error", [
+    MemoryError(),
+    RuntimeError("[enforce fail at alloc_cpu.cpp:127] err == 0. DefaultCPUAllocator: can't allocate memory: you tried to "
+                 "allocate 12582912 bytes. Error code 12 (Cannot allocate memory)"),  # torch under ulimit -v
+    ImportError("libgfortran-8f1e9814.so.5.0.0: failed to map segment from shared object"),  # scipy's, likewise
+    RuntimeError("can't start new thread"),  # ulimit -u
+])
+def test_a_limit_of_the_machine_ends_a_run_in_one_line_naming_what_it_kept(error, tmp_path, capsys):
+    (tmp_path / "strokes.json").write_text("{}")
+    (tmp_path / "paint.log").write_text("")
+
+    def work(cfg):
+        raise error
+
+    with pytest.raises(SystemExit) as ended:
+        run_job(OmegaConf.create({"output_dir": str(tmp_path)}), work)
+    line = capsys.readouterr().err
+    assert ended.value.code == FAILED and line.count("\n") == 1 and line.startswith("error: a limit of this machine")
+    assert "kept paint.log, strokes.json" in line and (tmp_path / "strokes.json").is_file()
+    with pytest.raises(ZeroDivisionError):  # a bug is no limit: its traceback stays
+        run_job(OmegaConf.create({"output_dir": str(tmp_path)}), lambda cfg: 1 / 0)
 
 
 def test_paths_and_colours_are_quoted_for_hydra_where_it_needs_it():

@@ -83,9 +83,14 @@ def record(out: Path, status: str, error: str) -> None:
 
 def refused_write(error: OSError, out: Path) -> str:
     """One line for a write the disk refused: why, where, and which files the run's dir kept."""
+    return (f"{error.strerror or error} while writing into {out}; the run stopped, keeping {_kept(out)} "
+            "(each whole: files are written beside their place, then renamed)")
+
+
+def _kept(out: Path) -> str:
+    """The files a run's dir ``out`` holds, for a line: ``strokes.json, paint.log`` or ``no file``."""
     kept = sorted(p.name for p in out.iterdir() if p.is_file() and not p.name.startswith(".")) if out.is_dir() else []
-    return (f"{error.strerror or error} while writing into {out}; the run stopped, keeping "
-            f"{', '.join(kept) or 'no file'} (each whole: files are written beside their place, then renamed)")
+    return ", ".join(kept) or "no file"
 
 
 def kept(cfg: DictConfig) -> bool:
@@ -117,10 +122,21 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
     try:
         with _heeding(stop):
             return work(cfg)
-    except (BadInput, InstantiationException, RunFailed, OSError) as error:  # a value refused, a run that could not go on
-        if isinstance(error, OSError) and error.errno not in REFUSED_WRITES:
+    except KeyboardInterrupt:
+        if stop is None:
             raise
-        message = refused_write(error, out) if isinstance(error, OSError) else _one_line(error)
+        stop.touch()
+        record(out, "interrupted", "interrupted (Ctrl-C or SIGTERM); the job kept what it had")
+    except Exception as error:
+        if (message := failure(error, out)) is None:  # a crash
+            if stop is None:
+                raise
+            record(out, "failed", f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error).strip() else ''}")
+            with suppress(OSError):  # a full disk: the record's line on stderr is all there is
+                (out / "traceback.txt").write_text(traceback.format_exc())
+            print(f"error: {out.name}: {type(error).__name__} (traceback in {out / 'traceback.txt'})", file=sys.stderr)
+            return None
+        _log_to_file(out, f"error: {message}")
         if stop is None and isinstance(error, (BadInput, InstantiationException)):
             _unmade_run(out)
             fail(message)
@@ -128,19 +144,36 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
             fail(message, FAILED)
         record(out, "failed", message)
         print(f"error: {out.name}: {message}", file=sys.stderr)
-    except Exception as error:
-        if stop is None:
-            raise
-        record(out, "failed", f"{type(error).__name__}: {str(error).strip().splitlines()[0] if str(error).strip() else ''}")
-        with suppress(OSError):  # a full disk: the record's line on stderr is all there is
-            (out / "traceback.txt").write_text(traceback.format_exc())
-        print(f"error: {out.name}: {type(error).__name__} (traceback in {out / 'traceback.txt'})", file=sys.stderr)
-    except KeyboardInterrupt:
-        if stop is None:
-            raise
-        stop.touch()
-        record(out, "interrupted", "interrupted (Ctrl-C or SIGTERM); the job kept what it had")
     return None
+
+
+def failure(error: Exception, out: Path) -> str | None:
+    """The one line for an error a run ends with, ``out`` its dir: a value refused, a run that could
+    not go on, a write the disk refused, a limit of the machine reached; None for a crash (a bug)."""
+    if isinstance(error, (BadInput, InstantiationException, RunFailed)):
+        return _one_line(error)
+    if isinstance(error, OSError) and error.errno in REFUSED_WRITES:
+        return refused_write(error, out)
+    text = str(error).lower()
+    if isinstance(error, MemoryError) or any(limit in text for limit in LIMITS):
+        return (f"a limit of this machine stopped the run ({(str(error).strip() or type(error).__name__).splitlines()[0]}); "
+                f"it kept {_kept(out)}. Free memory or raise the limit (ulimit -v, ulimit -u), or ask for less "
+                "(strokes=, render_size=)")
+    return None
+
+
+# What an error says when the machine's memory or its limit on processes and threads ran out.
+LIMITS = ("can't allocate memory", "cannot allocate memory", "failed to map segment", "out of memory",
+          "can't start new thread", "resource temporarily unavailable")
+
+
+def _log_to_file(out: Path, message: str) -> None:
+    """``message`` as an error, into the run's own log file in ``out`` alone (``paint.log``,
+    ``train.log``): the console's line is :func:`fail`'s."""
+    record = logging.getLogger(__name__).makeRecord(__name__, logging.ERROR, __file__, 0, message, None, None)
+    for handler in logging.getLogger().handlers:
+        if isinstance(handler, logging.FileHandler) and Path(handler.baseFilename).parent == out.absolute():
+            handler.handle(record)
 
 
 class Sweeps(Callback):

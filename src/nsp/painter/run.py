@@ -8,22 +8,19 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import time
 from pathlib import Path
 
 import torch
-from hydra.errors import InstantiationException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.brushes import get_brush
-from nsp.cli import REFUSED_WRITES, refused_write
 from nsp.colors import parse_color
 from nsp.engine.device import resolve_device
 from nsp.engine.memory import STYLE_BYTES, WORK_BYTES, check_canvas
-from nsp.errors import BadInput, RunFailed
+from nsp.errors import BadInput
 from nsp.files import write_json
 from nsp.images import load_image, long_side, resize
 from nsp.io.export import frame_ends, write_png
@@ -169,31 +166,6 @@ def _faces(target: torch.Tensor, ahead: FilesAhead | None) -> list:
 
 def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool = True,
           ahead: FilesAhead | None = None) -> dict:
-    """:func:`_paint`, whose one-line error (a value refused, a run that could not go on, a write
-    the disk refused) lands in the run's own log file too (``paint.log``, under Hydra), where the
-    command prints it on the console."""
-    try:
-        return _paint(cfg, photo, brush_named, ahead)
-    except (BadInput, InstantiationException, RunFailed, OSError) as error:
-        out = Path(cfg.output_dir)
-        if not isinstance(error, OSError):
-            log_to_file(out, "error: " + "; ".join(line.strip() for line in str(error).strip().splitlines()))
-        elif error.errno in REFUSED_WRITES:
-            log_to_file(out, "error: " + refused_write(error, out))
-        raise
-
-
-def log_to_file(out: Path, message: str) -> None:
-    """``message`` as an error of this module, into the log files in ``out`` alone (the console's
-    handler is left out: the command prints the line there itself)."""
-    record = log.makeRecord(log.name, logging.ERROR, __file__, 0, message, None, None)
-    for handler in logging.getLogger().handlers:
-        if isinstance(handler, logging.FileHandler) and os.path.dirname(handler.baseFilename) == os.path.abspath(out):
-            handler.handle(record)
-
-
-def _paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool = True,
-           ahead: FilesAhead | None = None) -> dict:
     """Paint ``cfg.image`` (or ``photo``, as :func:`prepare` takes it); write the painting's files into
     ``cfg.output_dir``; return the metrics (``seconds``: the whole run, the checks and files included).
     Unless ``brush_named``, a trained renderer paints with its checkpoint's brush (:func:`follows_checkpoint`).
