@@ -93,11 +93,7 @@ def main() -> None:
         "`python -m nsp.paint` on its defaults (astronaut, 500 oil strokes), a fresh process each run, the settings in "
         f"turn, the fastest of {args.repeats} each. *painting* and *files* are the times its last line reports; the rest "
         "is start-up (Python, torch, Hydra, the checks; the face search counts as painting). One painting takes every "
-        "core by default: a second process, started before Hydra reads the config, finds the photo's faces and "
-        "paints each finished level's strokes into the files while the painter paints the next (`nsp.painter.ahead`), "
-        "and the painter's tensor ops "
-        "take torch's threads whenever that process is idle, one otherwise; *files* is then what is left once the "
-        "painting is done. `threads=1` writes the files after painting, as a sweep's jobs (a core each) do. Beside "
+        "core by default, and its files are written once it is done, a core each; `threads=1` paints on one. Beside "
         "other CPU-bound work, torch's threads wait on each other: there `threads=1` paints faster, and the whole command takes about as long.", "",
         f"Command: `python benchmarks/demo.py --repeats {args.repeats}{base}`  ",
         f"Machine: {machine()}, no GPU; {time.strftime('%Y-%m-%d')}", "", *rows, *turns]))

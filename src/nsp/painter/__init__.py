@@ -6,7 +6,6 @@
 - :mod:`~nsp.painter.placement` — where and in what colour a new stroke starts;
 - :mod:`~nsp.painter.renderer` — ``analytic`` (soft vector engine) and ``neural`` renderers;
 - :mod:`~nsp.painter.losses`, :mod:`~nsp.painter.transport` — L1 and the transportation loss;
-- :mod:`~nsp.painter.outputs`, :mod:`~nsp.painter.ahead`, :mod:`~nsp.painter.callbacks`,
-  :mod:`~nsp.painter.schema` — files out (made while the painting goes on, in a process of their
-  own), logging, and ``python -m nsp.paint``'s config (photos come in through :mod:`nsp.images`).
+- :mod:`~nsp.painter.outputs`, :mod:`~nsp.painter.callbacks`, :mod:`~nsp.painter.schema` — files
+  out, logging, and ``python -m nsp.paint``'s config (photos come in through :mod:`nsp.images`).
 """

@@ -15,7 +15,6 @@ from torch.utils.tensorboard.summary import hparams
 
 from nsp.images import psnr, resize
 from nsp.io.export import to_uint8
-from nsp.painter.ahead import FilesAhead
 from nsp.painter.painter import Callback, Painter
 
 
@@ -76,26 +75,6 @@ class TensorBoard(Callback):
         for summary in hparams(dict(settings), {f"final/{name}": 0.0 for name in scores}):
             self.writer._get_file_writer().add_summary(summary)
         self.writer.flush()
-
-
-class SendLevels(Callback):
-    """Each finished level's strokes to the process writing the painting's files ahead
-    (:class:`~nsp.painter.ahead.FilesAhead`); the painter on one thread while that process works
-    (beside it, a second would wait on it at every parallel op), on ``threads`` otherwise."""
-
-    def __init__(self, files: FilesAhead, threads: int):
-        self.files, self.threads, self.sent = files, threads, 0
-
-    def on_step(self, painter: Painter, step: int, losses: dict[str, float]) -> None:
-        threads = 1 if self.files.working() else self.threads
-        if torch.get_num_threads() != threads:
-            torch.set_num_threads(threads)
-
-    def on_level(self, painter: Painter, level: int, canvas: Tensor) -> None:
-        strokes = painter.strokes()
-        self.files.add(strokes[self.sent:])
-        self.sent = len(strokes)
-        torch.set_num_threads(1)
 
 
 class ProgressBar(Callback):

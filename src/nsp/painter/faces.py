@@ -5,10 +5,9 @@ picture spends a 500-stroke budget on the flag and the suit, and paints eyes as 
 from __future__ import annotations
 
 from functools import cache
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
-if TYPE_CHECKING:  # this module imports no torch: the files' process loads the cascade before it (nsp.painter.ahead)
-    from torch import Tensor
+from torch import Tensor
 
 MIN_FACE = 12  # the smallest face looked for, in pixels of the image searched
 MARGIN = 0.3  # a found box grows by this share of its side: the cascade frames eyes to mouth, not the hairline and chin

@@ -29,10 +29,9 @@ def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tupl
 
 
 class PaintingFiles:
-    """A painting's files, made as its strokes come, in painting order: :meth:`add` paints them
-    onto final.png's canvas and the GIF's frames and makes their SVG elements (images, for a brush
-    whose paint has no vector form), :meth:`finish` writes every file. All at once (:func:`write_files`), or a
-    level at a time while the painting goes on (:mod:`nsp.painter.ahead`), the files are the same.
+    """A painting's files: :meth:`finish` paints its strokes onto final.png's canvas and the GIF's
+    frames, makes their SVG elements (images, for a brush whose paint has no vector form), and
+    writes every file (:func:`write_files`).
 
     Args:
         out: the run dir.
@@ -57,11 +56,6 @@ class PaintingFiles:
         self.animation = Animation(brush, strokes, *long_side(*aspect, animation_size), background, frames, device=device)
         self.elements: list[tuple[str, str]] = []  # painting.svg's, of the strokes painted
         self.count = 0  # strokes painted
-
-    def add(self, strokes: Tensor) -> None:
-        """Paint the painting's next ``strokes`` (n, d)."""
-        self._paint(strokes)
-        self.animation.add(strokes)
 
     def _paint(self, strokes: Tensor) -> None:
         """Paint the next ``strokes`` (n, d) onto final.png's canvas, and make their SVG elements."""

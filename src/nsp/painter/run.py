@@ -24,8 +24,7 @@ from nsp.errors import BadInput
 from nsp.files import write_json
 from nsp.images import load_image, long_side, resize
 from nsp.io.export import frame_ends, write_png
-from nsp.painter.ahead import FilesAhead
-from nsp.painter.callbacks import ProgressBar, SendLevels, TensorBoard
+from nsp.painter.callbacks import ProgressBar, TensorBoard
 from nsp.painter.faces import find_faces
 from nsp.painter.losses import PaintLoss
 from nsp.painter.outputs import write_files, write_strokes_and_png
@@ -158,19 +157,10 @@ def paint_style(cfg: DictConfig, painter: Painter, strokes: torch.Tensor, photo:
     return strokes, background, bar.seconds
 
 
-def _faces(target: torch.Tensor, ahead: FilesAhead | None) -> list:
-    """The faces in ``target`` (3, H, W): those the files' process found, else searched here."""
-    found = None if ahead is None else ahead.faces()
-    return find_faces(target) if found is None else found
-
-
-def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool = True,
-          ahead: FilesAhead | None = None) -> dict:
+def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool = True) -> dict:
     """Paint ``cfg.image`` (or ``photo``, as :func:`prepare` takes it); write the painting's files into
     ``cfg.output_dir``; return the metrics (``seconds``: the whole run, the checks and files included).
     Unless ``brush_named``, a trained renderer paints with its checkpoint's brush (:func:`follows_checkpoint`).
-    ``ahead``: a process to write the files in while the painting goes on, the painter on one thread
-    while it works (:mod:`nsp.painter.ahead`); closed here where the strokes are styled after it.
 
     Interrupted (Ctrl-C, SIGTERM) or failing part-way, it still writes ``strokes.json`` and
     ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises.
@@ -179,12 +169,8 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
     if follows_checkpoint(cfg, brush_named):
         cfg.brush.name = checkpoint_brush(cfg.renderer.checkpoint)
     painter, photo, image, style = prepare(cfg, photo)
-    if ahead is not None and image is not None:  # the styled strokes are the painting's: its files are written here
-        ahead.close()
-        ahead = None
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
-    threads = torch.get_num_threads()
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     target = resize(photo, cfg.work_size)
@@ -194,23 +180,15 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
         board = TensorBoard(writer, target)
         with ProgressBar(cfg.strokes, cfg.progress) as bar:  # the painting's time: its face search too
             painter.callbacks += [board, bar]
-            if ahead is not None:
-                ahead.begin(out, dict(name=cfg.brush.name, texture=cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto),
-                            photo, background, cfg.render_size, cfg.animation_size, cfg.animation_frames, cfg.strokes)
-                painter.callbacks.append(SendLevels(ahead, threads))
-                torch.set_num_threads(1)  # till the files' process has started (SendLevels)
             try:
-                faces = _faces(target, ahead) if searches_faces(cfg) else []
+                faces = find_faces(target) if searches_faces(cfg) else []
                 strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
             except BaseException:
                 with shielded():
-                    if ahead is not None:
-                        ahead.close()
                     write_strokes_and_png(out, painter.strokes(), brush, photo.shape[-2:], background, cfg.render_size)
                     board.flush()
                 raise
         painting = bar.seconds
-        torch.set_num_threads(threads)
         on_faces = f" ({counted(len(faces), 'face')} given a level of {'its' if len(faces) == 1 else 'their'} own)" if faces else ""
         phases.append(f"painted {counted(len(strokes), painter.brush.name + ' stroke')}{on_faces} in {painting:.1f} s")
         try:  # from here to the last file, an interruption or a failure still leaves what was painted
@@ -222,14 +200,10 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
             frames = len(frame_ends(len(strokes), cfg.animation_frames))
             log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
             files = time.perf_counter()
-            scores = None if ahead is None else ahead.finish(strokes)
-            if scores is None:
-                scores = write_files(out, strokes, brush, photo, background, cfg.render_size, cfg.animation_size,
-                                     cfg.animation_frames, workers=min(3, torch.get_num_threads()))
+            scores = write_files(out, strokes, brush, photo, background, cfg.render_size, cfg.animation_size,
+                                 cfg.animation_frames, workers=min(3, torch.get_num_threads()))
         except BaseException:
             with shielded():
-                if ahead is not None:
-                    ahead.close()
                 write_strokes_and_png(out, strokes, brush, photo.shape[-2:], background, cfg.render_size)  # styled, if it was
             raise
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
