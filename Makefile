@@ -28,8 +28,13 @@ demo: setup
 	$(BIN)/python -m nsp.paint hydra.run.dir=outputs/demo
 	@echo "Results in outputs/demo: final.png painting.svg animation.gif strokes.json metrics.json"
 
+# The numerics tests (-m numerics) again under the CPU kernels torch would pick on other machines.
+CAPABILITIES := avx2 default
+
 test: setup
 	$(BIN)/python -m pytest -n 2
+	for isa in $(CAPABILITIES); do echo "numerics with ATEN_CPU_CAPABILITY=$$isa"; \
+		ATEN_CPU_CAPABILITY=$$isa $(BIN)/python -m pytest -n 2 -q -m numerics || exit 1; done
 
 bench: setup  # quality.py and seeds.py (--base) and the reference rows (--reference) need another checkout: docs/benchmarks.md
 	$(BIN)/python benchmarks/demo.py

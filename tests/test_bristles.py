@@ -10,6 +10,8 @@ import torch.nn.functional as F
 from nsp.brushes import BRUSHES, get_brush
 from nsp.engine import paint_canvas, render
 
+pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
+
 OIL = BRUSHES["oilpaint"]
 GREY = (0.5, 0.5, 0.5)
 

@@ -7,6 +7,8 @@ import torch
 from nsp.brushes import BRUSHES, get_brush
 from nsp.engine import render
 
+pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
+
 S = 64
 
 

@@ -15,6 +15,8 @@ from nsp.brushes.texture import EMBEDDED
 from nsp.engine import composite, paint_canvas, render
 from nsp.engine.kernels import antialiased, soft
 
+pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
+
 NAMES = list(BRUSHES)
 
 

@@ -24,6 +24,8 @@ from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
 from nsp.painter.schema import ScheduleConfig
 from nsp.painter.structure import orientation, smooth, structure_tensor
 
+pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
+
 PACKAGE = Path(nsp.__file__).parent  # nsp's own modules, wherever the checkout lies
 
 

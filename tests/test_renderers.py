@@ -8,6 +8,9 @@ from hydra import compose, initialize_config_dir
 from nsp.brushes import BRUSHES
 from nsp.renderers import SIZES, DualPathway, build
 from nsp.training.schema import register_configs
+
+pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
+
 CONF = Path(__file__).parents[1] / "conf" / "train"
 RENDERERS = sorted(p.stem for p in (CONF / "renderer").glob("*.yaml"))
 SMALL = 0.125  # width multiplier that keeps the tests fast

@@ -30,6 +30,8 @@ from nsp.style.measures import HELD_OUT_SEED, NEAR, coherence, color_distance, l
 from nsp.style.features import TappedFeatures, chosen_backbone
 from nsp.style.recolor import KNOTS, STRETCH, Bounds, ColorSettings, Objective, chroma_span, gaussian_transport
 
+pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
+
 S = 48  # canvas side in pixels: small, so optimization tests stay fast on a CPU
 
 

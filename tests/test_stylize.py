@@ -30,6 +30,8 @@ from nsp.style import Recoloring, StyleLoss
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance
 from nsp.style.recolor import ColorSettings, shared_map
 
+pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
+
 SIZE = 48
 CONF = Path(__file__).parents[1] / "conf"
 

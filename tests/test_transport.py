@@ -8,6 +8,8 @@ from nsp.brushes import get_brush
 from nsp.engine import render
 from nsp.painter.transport import dense_sinkhorn, sinkhorn, transport_loss
 
+pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
+
 SIZE = 48
 PAPER = (48, 0.01, 5)  # the transportation loss as the painter runs it: grid, ε, Sinkhorn iterations
 SIDE = 12.5 / SIZE  # half side 6.25 px: edges cut pixels at a quarter, away from coverage kinks
