@@ -20,7 +20,7 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q $(TORCH)
 	$(BIN)/pip install -q -e '.[dev]'
-	$(BIN)/python -m nsp.engine  # the painter's compiled kernels, once a machine (about a minute)
+	$(BIN)/python -m nsp.engine oilpaint  # the demo's compiled kernels, once a machine (other brushes: python -m nsp.engine BRUSH)
 	touch $(STAMP)
 
 demo: setup

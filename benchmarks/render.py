@@ -133,8 +133,8 @@ def main() -> None:
         "varies by a few tenths of a second from one process to the next, more than the cheaper brushes' strokes take, "
         "so the same is also timed inside fresh processes from after the imports (`nsp.render.render`: reading the "
         "file, rendering, writing the PNG). The last column is a new user's first render: `compile` left to nsp "
-        "(`nsp.engine.fused.pays` takes the compiled path only where it is expected to finish sooner, a compile "
-        "included) and no kernels cached.\n\n"
+        "(the compiled path where the kernels are on disk, eager otherwise: until "
+        "2026-11-27, `nsp.engine.fused.pays` chose it where a cost model expected it to finish sooner, a compile included) and no kernels cached.\n\n"
         f"Command: `{command}{' --reference PATH' if args.reference else ''}`"
         f"{' (PATH: a checkout of github.com/jiupinjia/stylized-neural-painting, with OpenCV; run, never copied)' if args.reference else ''}  \n"
         f"Machine: {machine()}; {time.strftime('%Y-%m-%d')}\n\n" + "\n".join(rows)

@@ -1,5 +1,4 @@
 """The vector engine: batching, resolution independence, range, determinism, soft-mode gradients."""
-import dataclasses
 import functools
 import os
 import subprocess
@@ -11,8 +10,8 @@ import torch.nn.functional as F
 
 from nsp.brushes import BRUSHES
 from nsp.brushes.base import Pixels
-from nsp.brushes.texture import EMBEDDED
 from nsp.engine import composite, paint_canvas, render
+from nsp.engine.fused import CACHE as MACHINE_CACHE  # ~/.cache/nsp/kernels, before a test points it elsewhere
 from nsp.engine.kernels import antialiased, soft
 
 pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
@@ -134,24 +133,6 @@ def test_compiled_soft_renders_of_any_size_match_eager_with_their_gradients(name
                for stage in (fused.shade_any_size, fused.shade_any_size_grad))
 
 
-def test_the_compiled_soft_shading_is_chosen_only_where_it_pays(monkeypatch, tmp_path):
-    from nsp.engine import fused
-
-    brush = BRUSHES["watercolor"]
-    monkeypatch.setattr(fused, "CACHE", tmp_path)  # a machine that never compiled
-    assert not fused.soft_pays(brush, 0.25, 5000)  # seconds saved: not worth a first compile
-    assert fused.soft_pays(brush, 0.25, 1_000_000)
-    for stage in (fused.shade_any_size, fused.shade_any_size_grad):
-        kernel = fused.package(stage, brush, dict(softness=0.25, tile=8), torch.device("cpu"))
-        kernel.parent.mkdir(parents=True, exist_ok=True)
-        kernel.touch()
-        assert fused.soft_pays(brush, 0.25, 500) == (stage is fused.shade_any_size_grad)  # both on disk: loading them pays
-    assert not fused.soft_pays(brush, 0.5, 500)  # another edge's kernels
-    assert not fused.soft_pays(BRUSHES["markerpen"], 0.25, 500)  # another brush's
-    textured = dataclasses.replace(BRUSHES["oilpaint"], texture_path=str(tmp_path / "t.png"))
-    assert not fused.soft_pays(textured, 0.5, 10**9)  # its texture is sampled at the canvas's size: no kernel of every size
-
-
 def test_empty_batch_and_far_away_strokes_render_empty():
     brush = BRUSHES["tape"]
     fg, alpha = render(brush, torch.zeros(0, brush.d), 16)
@@ -229,35 +210,227 @@ def test_closest_point_on_a_bezier_matches_dense_sampling(generator):
     assert torch.all(dist(t) <= best + 1e-2)
 
 
-def test_compiled_path_is_chosen_only_where_it_pays(generator, monkeypatch, tmp_path):
+@pytest.fixture
+def cache(monkeypatch, tmp_path):
+    """An empty kernel cache, and a process that has loaded, found and said nothing of kernels yet."""
     from nsp.engine import fused
-    from nsp.engine.kernels import shade_any_size, shade_tiles
 
+    for name in ("_LOADED", "_FAILED", "_ON_DISK"):
+        monkeypatch.setattr(fused, name, {})
+    monkeypatch.setattr(fused, "_TOLD", set())
+    monkeypatch.setattr(fused, "CACHE", tmp_path / "kernels")
+    return tmp_path / "kernels"
+
+
+def kernel_on_this_machine(stage, brush, softness):
+    """A kernel of every canvas size in this machine's own cache (``make setup`` compiled them; compiled
+    here only where it has not), for the tests that need a compiled one without compiling it."""
+    from nsp.engine import fused
+
+    cpu, consts = torch.device("cpu"), dict(softness=softness, tile=8)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fused, "CACHE", MACHINE_CACHE)
+        if not (path := fused.package(stage, brush, consts, cpu)).exists():
+            x = brush.sample(8, torch.Generator().manual_seed(0)).requires_grad_(stage is fused.shade_any_size_grad)
+            fg, alpha = render(brush, x, 32, softness=softness, compile=True)
+            if x.requires_grad:
+                (fg.sum() + alpha.sum()).backward()
+    assert path.exists()
+    return path
+
+
+def test_auto_paints_eagerly_without_kernels_and_names_the_command_that_compiles_them_once(generator, cache, caplog):
     brush = BRUSHES["watercolor"]
-    few, many = moderate(brush, 10, generator), moderate(brush, 20000, generator)
-    monkeypatch.setattr(fused, "CACHE", tmp_path)  # a machine that never compiled
-    assert not fused.pays(brush, few, 128, 128)
-    assert not fused.pays(brush, many, 128, 128)  # seconds of eager work: not worth a first compile
-    assert fused.pays(brush, many, 4096, 4096)  # an hour eager: worth even a first compile
-    kernel = fused.package(shade_any_size, brush, dict(tile=8, softness=None), many.device)
-    kernel.parent.mkdir(parents=True)
-    kernel.touch()
-    assert fused.pays(brush, many, 128, 128) and fused.pays(brush, many, 128, 96)  # on disk, for every size: loading it pays
-    assert not fused.pays(brush, many, 128, 128, softness=1.0)  # not this kernel
-    assert not fused.pays(brush, many.requires_grad_(), 4096, 4096)  # gradients stay eager
-    assert not fused.pays(BRUSHES["tape"], few, 128, 128)
-    oil = BRUSHES["oilpaint"]  # a kernel for every canvas that draws the same bristle scales
-    strokes = moderate(oil, 20000, generator)
-    assert oil.sized(1024) is oil.sized(768) is not oil.sized(2048) and oil.sized(64) is oil.plain()
-    kernel = fused.package(shade_any_size, oil.sized(1024), dict(tile=8, softness=None), strokes.device)
-    kernel.touch()
-    assert fused.pays(oil, strokes, 1024, 1024) and fused.pays(oil, strokes, 1024, 768)
-    assert not fused.pays(oil, strokes[:1000], 2048, 2048) and fused.pays(oil, strokes[:1000], 1024, 1024)
-    textured = dataclasses.replace(oil, texture_path=EMBEDDED + "…", _cache={})  # sampled to each canvas: a kernel per size
-    assert textured.sized(64) is None
-    sized = fused.package(shade_tiles, textured, dict(height=1024, width=1024, tile=8, softness=None), strokes.device)
-    sized.touch()
-    assert fused.pays(textured, strokes, 1024, 1024) and not fused.pays(textured, strokes, 1024, 768)
+    x = moderate(brush, 12, generator)
+    eager = paint_canvas(brush, x, 40, 56, compile=False)
+    assert torch.equal(paint_canvas(brush, x, 40, 56), eager)  # compile=None: auto
+    assert torch.equal(paint_canvas(brush, x, 40, 56, compile=None), eager)
+    strokes = x.clone().requires_grad_()
+    render(brush, strokes, 32, softness=brush.softness, compile=None)[1].sum().backward()  # the painter's kind
+    lines = [record.getMessage() for record in caplog.records]
+    assert lines == ["compiled kernels: watercolor's are not on this machine; rendering eagerly "
+                     "(`python -m nsp.engine watercolor` compiles them, once a machine)"]
+    assert not cache.exists()  # nothing compiled
+
+
+def test_the_command_named_is_the_one_that_compiles_the_missing_kernel():
+    from nsp.engine import fused
+
+    oil, cpu = BRUSHES["oilpaint"], torch.device("cpu")
+    files = lambda width: fused.package(fused.shade_any_size, oil.sized(width), dict(softness=None, tile=8), cpu)
+    soft = fused.package(fused.shade_any_size_grad, oil.plain(), dict(softness=oil.softness, tile=8), cpu)
+    assert fused.engine_command("oilpaint", files(1024), 1024) == "python -m nsp.engine oilpaint"  # make setup's
+    assert fused.engine_command("oilpaint", files(384), 384) == "python -m nsp.engine oilpaint"
+    assert fused.engine_command("oilpaint", soft, 64) == "python -m nsp.engine oilpaint"
+    assert fused.engine_command("oilpaint", files(2048), 2048) == "python -m nsp.engine oilpaint --width 2048"
+    other = fused.package(fused.shade_any_size, oil.plain(), dict(softness=0.3, tile=8), cpu)
+    assert fused.engine_command("oilpaint", other, 64) is None  # another softness: no command compiles it ahead
+
+
+def test_auto_uses_the_kernels_on_disk(generator, monkeypatch):
+    from nsp.engine import fused
+
+    brush = BRUSHES["tape"]
+    kernel_on_this_machine(fused.shade_any_size, brush, None)
+    for name in ("_LOADED", "_FAILED", "_ON_DISK"):
+        monkeypatch.setattr(fused, name, {})  # a fresh process
+    x = moderate(brush, 30, generator)
+    auto = paint_canvas(brush, x, 48, 64)
+    assert [key[1] for key in fused._LOADED] == [fused.shade_any_size]
+    assert (auto - paint_canvas(brush, x, 48, 64, compile=False)).abs().max() < 1e-4
+
+
+def test_compile_false_never_touches_the_cache(generator, monkeypatch, cache):
+    from nsp.engine import fused
+    from nsp.painter.renderer import AnalyticRenderer
+
+    def touched(*args, **kwargs):
+        raise AssertionError("the kernel cache was looked at")
+
+    monkeypatch.setattr(fused, "package", touched)
+    monkeypatch.setattr(fused, "_ready", touched)
+    brush = BRUSHES["oilpaint"]
+    x = moderate(brush, 10, generator)
+    paint_canvas(brush, x, 300, 400, compile=False)
+    strokes = x.clone().requires_grad_()
+    renderer = AnalyticRenderer(brush, compile=False)
+    renderer.composite(strokes, torch.zeros(10, dtype=torch.long), torch.ones(1, 3, 32, 32)).sum().backward()
+    assert not cache.exists()
+
+
+@pytest.mark.parametrize(("other", "name"), [("markerpen", "oilpaint"), ("watercolor", "tape")],
+                         ids=["same-width", "wider-strokes"])
+def test_another_brushs_kernel_under_a_brushs_name_is_not_used(other, name, generator, cache, caplog):
+    import shutil
+
+    from nsp.engine import fused
+
+    brush, consts, cpu = BRUSHES[name].plain(), dict(softness=None, tile=8), torch.device("cpu")
+    theirs = kernel_on_this_machine(fused.shade_any_size, BRUSHES[other], None)  # compiled without the metadata checked below
+    ours = fused.package(fused.shade_any_size, brush, consts, cpu)
+    ours.parent.mkdir(parents=True)
+    shutil.copyfile(theirs, ours)
+    x = moderate(brush, 40, generator)
+    assert torch.equal(paint_canvas(brush, x, 128, 96), paint_canvas(brush, x, 128, 96, compile=False))
+    assert not ours.exists()
+    assert [r.getMessage() for r in caplog.records] == [
+        f"compiled kernels: {ours.name} does not draw what it is named for (a file of another brush or canvas?); "
+        "removed it; rendering without it"]
+
+
+def test_a_kernel_compiled_for_another_path_is_refused_before_it_runs(generator, monkeypatch, cache, caplog):
+    from nsp.engine import fused
+
+    brush, consts, cpu = BRUSHES["tape"], dict(softness=None, tile=8), torch.device("cpu")
+    theirs, ours = (fused.package(fused.shade_any_size, brush, dict(consts, tile=tile), cpu) for tile in (8, 16))
+    ours.parent.mkdir(parents=True)
+    ours.write_bytes(b"a package")
+
+    class Recorded:  # what compile_kernel records in a package; loading one to run it would fail this test
+        load_metadata_from_package = staticmethod(lambda file, model: {fused.IDENTITY: fused._identity(theirs)})
+
+    monkeypatch.setattr(fused, "_Loader", Recorded)
+    x = moderate(brush, 30, generator)
+    assert torch.equal(paint_canvas(brush, x, 64, 64, tile=16), paint_canvas(brush, x, 64, 64, tile=16, compile=False))
+    assert not ours.exists() and f"{ours.name} was compiled for {fused._identity(theirs)}; removed it" in caplog.text
+
+
+@pytest.mark.parametrize(("why", "free"), [("Failed to extract zip file x.so to destination file /tmp/x.so, mz_zip error "
+                                            "string: write callback failed", 1 << 40), (None, 0)],
+                         ids=["unpacking-fails", "no-room-to-unpack"])
+def test_a_kernel_the_disk_cannot_unpack_is_kept_and_the_render_goes_eager(why, free, generator, monkeypatch, cache,
+                                                                           caplog):
+    import collections
+    import shutil
+
+    from nsp.engine import fused
+
+    brush, consts = BRUSHES["tape"], dict(softness=None, tile=8)
+    path = fused.package(fused.shade_any_size, brush, consts, torch.device("cpu"))
+    path.parent.mkdir(parents=True)
+    shutil.copyfile(kernel_on_this_machine(fused.shade_any_size, brush, None), path)
+
+    class Failing:
+        load_metadata_from_package = staticmethod(lambda file, model: {})
+
+        def __init__(self, *args):
+            raise RuntimeError(why)
+
+    monkeypatch.setattr(fused, "_Loader", Failing)
+    monkeypatch.setattr(fused.shutil, "disk_usage", lambda where: collections.namedtuple("Usage", "free")(free))
+    x = moderate(brush, 30, generator)
+    for _ in range(2):  # asked once, not at every render
+        assert torch.equal(paint_canvas(brush, x, 64, 64), paint_canvas(brush, x, 64, 64, compile=False))
+    assert path.exists() and len(caplog.records) == 1 and "no room in" in caplog.text
+
+
+def test_compile_true_on_a_full_disk_goes_eager_without_compiling_again(generator, monkeypatch, cache, caplog):
+    import collections
+
+    from nsp.engine import fused
+
+    monkeypatch.setattr(fused.shutil, "disk_usage", lambda where: collections.namedtuple("Usage", "free")(1 << 20))
+    brush = BRUSHES["tape"]
+    x = moderate(brush, 10, generator)
+    for _ in range(2):
+        assert torch.equal(paint_canvas(brush, x, 16, 24, compile=True), paint_canvas(brush, x, 16, 24, compile=False))
+    assert [r.getMessage() for r in caplog.records] == [
+        f"compiled kernels: cannot write {cache} (No space left on device); rendering without it"]
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 3-MB filesystem holding a kernel of tape's and full, where this machine lets the tests mount one."""
+    from nsp.engine import fused
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(disk)], capture_output=True).returncode:
+        pytest.skip("this machine does not let the tests mount a tmpfs; the mocked full disks above stand in")
+    consts, cpu = dict(softness=None, tile=8), torch.device("cpu")
+    kernel = kernel_on_this_machine(fused.shade_any_size, BRUSHES["tape"], None)
+    copy = disk / "nsp" / "kernels" / kernel.relative_to(fused.CACHE)
+    copy.parent.mkdir(parents=True)
+    copy.write_bytes(kernel.read_bytes())
+    (disk / "tmp").mkdir()
+    with open(disk / "taken", "wb") as taken:  # every byte left
+        try:
+            while True:
+                taken.write(bytes(64 * 1024))
+                taken.flush()
+        except OSError:
+            pass
+    yield disk
+    subprocess.run(["umount", "--lazy", str(disk)], check=True)
+
+
+def test_a_full_disk_under_the_cache_and_the_temporary_dir_never_aborts_a_render(full_disk):
+    script = """if True:
+        import torch
+        from nsp.brushes import BRUSHES
+        from nsp.engine import paint_canvas
+        tape = BRUSHES["tape"]
+        x = tape.sample(200, torch.Generator().manual_seed(0))
+        eager = paint_canvas(tape, x, 96, 128, compile=False)
+        assert torch.equal(paint_canvas(tape, x, 96, 128), eager)  # auto: on disk, with no room to unpack it
+        assert torch.equal(paint_canvas(tape, x, 96, 128, softness=0.7, compile=True), paint_canvas(tape, x, 96, 128,
+                           softness=0.7, compile=False))  # true: a compile with no room to write it
+        print("painted")
+    """
+    env = dict(os.environ, XDG_CACHE_HOME=str(full_disk), TMPDIR=str(full_disk / "tmp"))
+    result = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0 and result.stdout == "painted\n", result.stderr[-3000:]
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 2 and "no room in" in lines[0] and "No space left on device" in lines[1], lines
+    assert list(full_disk.rglob("*.pt2"))  # the kernel kept: the disk was at fault, not the file
+
+
+def test_python_m_nsp_engine_names_the_brushes_it_knows_when_given_another(capsys):
+    from nsp.engine.__main__ import main
+
+    assert main(["oilpaint", "nosuchbrush"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == "error: no brush 'nosuchbrush'; expected one of: oilpaint, watercolor, markerpen, tape\n"
 
 
 def test_a_kernel_is_compiled_once_into_the_cache_and_falls_back_where_it_cannot_serve(generator, monkeypatch, tmp_path):
@@ -270,7 +443,9 @@ def test_a_kernel_is_compiled_once_into_the_cache_and_falls_back_where_it_cannot
     dx, dy = tile_offsets(8, x)
     eager = shade_tiles(brush, x, t, key, dx, dy, **consts)
     compiled = fused.fused(shade_tiles, brush, (x, t, key), (dx, dy), **consts)
-    assert list(tmp_path.rglob("*.pt2")) == [fused.package(shade_tiles, brush, consts, x.device)]
+    path = fused.package(shade_tiles, brush, consts, x.device)
+    assert list(tmp_path.rglob("*.pt2")) == [path]
+    assert fused._Loader.load_metadata_from_package(str(path), "model")[fused.IDENTITY] == fused._identity(path)
     assert all(torch.allclose(a, b, atol=1e-5) for a, b in zip(compiled, eager))
     stamp = fused.package(shade_tiles, brush, consts, x.device).stat().st_mtime_ns
     more, t, key = brush.sample(300, generator), torch.arange(300) % 6, torch.arange(300)  # another batch size: the same kernel
@@ -295,7 +470,7 @@ def test_a_corrupt_kernel_in_the_cache_is_removed_and_the_render_goes_on_without
     path = fused.package(shade_tiles, brush, consts, x.device)
     path.parent.mkdir(parents=True)
     path.write_bytes(content)
-    out = fused.fused(shade_tiles, brush, (x, t, key), (dx, dy), **consts)
+    out = fused.fused(shade_tiles, brush, (x, t, key), (dx, dy), build=False, **consts)  # True: compiled afresh
     assert all(torch.equal(a, b) for a, b in zip(out, shade_tiles(brush, x, t, key, dx, dy, **consts)))
     assert not path.exists() and "could not be loaded" in caplog.text
 

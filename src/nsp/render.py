@@ -25,7 +25,8 @@ class RenderConfig:
     out: str = MISSING
     size: int = 512
     background: Optional[str] = None  # None: the stroke file's own background
-    compile: Optional[bool] = None  # None: where it is expected to pay (nsp.engine.fused.pays)
+    # the compiled kernels: true, compiled first where missing; null (auto): those this machine has (nsp.engine.fused.choose)
+    compile: Optional[bool] = None
     device: str = "cpu"  # cpu, cuda, cuda:N or auto
     brush: Optional[Any] = None  # a ``brush`` group option (nsp.config.BrushConfig); for reference .npz files only
 

@@ -1,9 +1,12 @@
-"""``python -m nsp.engine``: compile the kernels a painting uses of every brush (the soft shading
-and its gradient, :class:`nsp.engine.raster.AnySizeShade`, and the plain paint's antialiased
-shading, all of any canvas size), and those of the files of a painting on the defaults where a
-brush draws them with more detail (oil's bristles), into this machine's kernel cache, so that
-paintings take them from their first run (``make setup`` does this once), a job a core. A brush
-whose kernels cannot be compiled here is named and skipped: its strokes are then shaded eagerly."""
+"""``python -m nsp.engine [BRUSH ...] [--width PX ...]``: compile the kernels a painting with each
+named brush uses (every brush where none is named) into this machine's kernel cache: the soft shading
+and its gradient (:class:`nsp.engine.raster.AnySizeShade`), the plain paint's antialiased shading, all
+of any canvas size, and the shading of a painting's files where a brush draws them with more detail
+(oil's bristles), for files ``--width`` px wide (those of a painting on the defaults where none is
+given). Paintings then take them from their first run (``compile`` left to auto); ``make setup``
+compiles the demo's brush, a job a core. A brush whose kernels cannot be compiled here is named and
+skipped: its strokes are then shaded eagerly. Kernels already in the cache are checked, not compiled
+again."""
 from __future__ import annotations
 
 import argparse
@@ -15,22 +18,38 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from nsp.brushes import BRUSHES
 from nsp.engine import fused
 
-# Canvas widths whose detail the files of a painting on the defaults have: final.png (1024 px long
-# side), animation.gif (512 px long side: 384 wide at 3:4; the one kernel serves 171–480 px).
-FILE_WIDTHS = (1024, 384)
 
-
-def main() -> int:
-    argparse.ArgumentParser(prog="python -m nsp.engine", description="Compile the kernels a painting uses, of every "
-                            "brush, into this machine's kernel cache (make setup does it once).").parse_args()
-    print(f"compiling the painter's kernels of {', '.join(BRUSHES)} into {fused.CACHE} "
-          "(once a machine, 20–60 s a brush)…", flush=True)
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m nsp.engine",
+        description="Compile the kernels a painting with each named brush uses (default: every brush) into this "
+                    "machine's kernel cache, once a machine; make setup compiles the demo's (oilpaint).")
+    parser.add_argument("brushes", nargs="*", metavar="BRUSH", help=f"one of {', '.join(BRUSHES)} (default: all)")
+    parser.add_argument("--width", type=int, action="append", metavar="PX",
+                        help="the width of a painting's files to compile for, where a brush draws them with more detail "
+                             "(oil's bristles); repeatable (default: "
+                             f"{' and '.join(map(str, fused.FILE_WIDTHS))}, a painting's on its defaults)")
+    args = parser.parse_args(argv)
+    if unknown := [name for name in args.brushes if name not in BRUSHES]:
+        print(f"error: no brush {', '.join(map(repr, unknown))}; expected one of: {', '.join(BRUSHES)}", file=sys.stderr)
+        return 2
+    if any(width < 1 for width in args.width or ()):
+        print("error: --width: expected a positive number of pixels", file=sys.stderr)
+        return 2
+    names = list(dict.fromkeys(args.brushes)) or list(BRUSHES)
+    widths = tuple(dict.fromkeys(args.width or fused.FILE_WIDTHS))
+    print(f"compiling the painter's kernels of {', '.join(names)} into {fused.CACHE} "
+          "(once a machine, 20–60 s a kernel set)…", flush=True)
+    jobs = [(name, None) for name in names]
+    for name in names:  # a job a detail: widths drawn alike share one kernel
+        details: dict[str, int] = {}
+        for width in widths:
+            if BRUSHES[name].varies(width):
+                details.setdefault(BRUSHES[name].sized(width).variant, width)
+        jobs += [(name, width) for width in details.values()]
     spawn = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(min(len(BRUSHES), os.cpu_count() or 1), mp_context=spawn) as pool:
-        jobs = [pool.submit(fused.compile_for_painting, name) for name in BRUSHES]
-        jobs += [pool.submit(fused.compile_for_painting, name, width) for name, brush in BRUSHES.items()
-                 for width in FILE_WIDTHS if brush.varies(width)]
-        for done in as_completed(jobs):
+    with ProcessPoolExecutor(min(len(jobs), os.cpu_count() or 1), mp_context=spawn) as pool:
+        for done in as_completed([pool.submit(fused.compile_for_painting, *job) for job in jobs]):
             print(done.result(), flush=True)
     return 0
 

@@ -9,7 +9,6 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush
 from nsp.colors import parse_color
-from nsp.engine.fused import pays
 from nsp.engine.raster import Tiles, composite_tiles, rasterize, to_tiles, untile
 
 CHUNK_PIXELS = 1 << 24  # bounding-box pixels of the strokes rendered at once; their tiles take ~16 B a pixel
@@ -76,17 +75,18 @@ class TiledCanvas:
         self.tiles = to_tiles(canvas, tile)  # a copy: strokes are blended into it in place
 
     def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = CHUNK_STROKES,
-              compile: bool = False, first: int = 0, images: list | None = None) -> None:
+              compile: bool | None = False, first: int = 0, images: list | None = None) -> None:
         """Composite ``strokes`` (N, d), numbers ``first``, … of their painting, in order, a
         :func:`chunks` at a time (memory stays bounded); ``compile``: shade them on the compiled
-        path (:mod:`nsp.engine.fused`); ``images``, if given, gets each stroke's :func:`box_images`
+        path (:mod:`nsp.engine.fused`: True, compiled first where missing; None, where this machine
+        has its kernels; False, never); ``images``, if given, gets each stroke's :func:`box_images`
         from the same tiles."""
         for _ in self.paint_until(brush, strokes, [len(strokes)], softness=softness, chunk=chunk, compile=compile,
                                   first=first, images=images):
             pass
 
     def paint_until(self, brush: Brush, strokes: Tensor, ends: list[int], *, softness: float | None = None,
-                    chunk: int = CHUNK_STROKES, compile: bool = False, first: int = 0,
+                    chunk: int = CHUNK_STROKES, compile: bool | None = False, first: int = 0,
                     images: list | None = None) -> Iterator[int]:
         """:meth:`paint`, pausing once strokes[:end] are on the canvas to yield ``end``, for each of
         ``ends`` (ascending, the last N): an animation's frames. Strokes are still rasterized a chunk
@@ -142,15 +142,14 @@ def paint_canvas(
     Only the tiles each stroke touches are rendered and blended, ``chunk`` strokes at a time, so
     a painting of thousands of strokes renders at any size in bounded memory.
     ``canvas`` (3, H, W), if given, replaces the plain ``background``. ``compile``: shade on the
-    compiled path; None: where it is expected to finish sooner (:func:`nsp.engine.fused.pays`).
+    compiled path, its kernels compiled first where this machine has none; None (auto): where it
+    has them (:func:`nsp.engine.fused.choose`); False: never.
     ``images``, if given, gets each stroke's :func:`box_images` (what an SVG holds of a brush whose
     paint has no vector form), from the same tiles.
     """
     if canvas is None:
         color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)
         canvas = color[:, None, None].expand(3, height, width)
-    if compile is None:
-        compile = pays(brush, strokes, height, width, softness)
     tiled = TiledCanvas(canvas, tile)
     tiled.paint(brush, strokes, softness=softness, chunk=chunk, compile=compile, first=first, images=images)
     return tiled.image()

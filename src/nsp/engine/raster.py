@@ -8,6 +8,7 @@ costs only the pixels near it and no Python loop runs over strokes.
 from __future__ import annotations
 
 import ctypes
+import functools
 import math
 from dataclasses import dataclass
 
@@ -16,7 +17,7 @@ from torch import Tensor
 
 from nsp.brushes.base import Brush
 from nsp.brushes.bristles import stroke_keys
-from nsp.engine.fused import fused
+from nsp.engine.fused import choose, fused, prepare
 from nsp.engine.kernels import near_tiles, shade_tiles, shade_any_size, shade_any_size_grad, tile_offsets
 
 PASS_PIXELS = 1 << 18  # pixels shaded per pass of the inner loop
@@ -117,7 +118,7 @@ def rasterize(
     *,
     softness: float | None = None,
     tile: int = 8,
-    compile: bool = False,
+    compile: bool | None = False,
     first: int = 0,
 ) -> Tiles:
     """Evaluate strokes ``x`` (B, d), numbers ``first``, …, ``first`` + B − 1 of their painting,
@@ -125,20 +126,19 @@ def rasterize(
 
     Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
     before ``brush.paint`` shades their pixels. ``compile`` culls and shades them by the brush's
-    compiled kernels (:func:`nsp.engine.fused.fused`): several times faster, once this machine has
-    compiled them (:func:`nsp.engine.fused.pays` tells when that is worth it). Where one kernel
-    serves every canvas of this one's detail (:meth:`~nsp.brushes.Brush.sized`: all but a user's
-    texture), it culls eagerly and shades by that kernel, differentiably (:class:`AnySizeShade`).
+    compiled kernels (:func:`nsp.engine.fused.fused`), several times faster: True compiles those
+    this machine lacks first (once a machine); None (auto) uses those it has and draws eagerly where
+    it has none (:func:`nsp.engine.fused.choose`); False never. Where one kernel serves every canvas
+    of this one's detail (:meth:`~nsp.brushes.Brush.sized`: all but a user's texture), it culls
+    eagerly and shades by that kernel, differentiably (:class:`AnySizeShade`).
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
+    build = compile is True  # auto compiles nothing
+    compile = choose(compile, brush, x, height, width, softness, tile)
     sized = brush.sized(width) if compile else None
     eager = (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
-    run = fused if compile and sized is None else eager
-    shade = fused if compile else eager
-    if sized is not None:
-        canvas = torch.tensor([height, width], dtype=x.dtype, device=x.device)
-        shade = (lambda stage, brush, paired, fixed, **consts:
-                 AnySizeShade.apply(*paired, *fixed, canvas, sized, consts["tile"], consts["softness"]))
+    kernel = functools.partial(fused, build=build)
+    run = kernel if compile and sized is None else eager
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
@@ -156,17 +156,28 @@ def rasterize(
         b, t = b[order], t[order]
 
     # x.index_select, not x[b]: its gradient sums a stroke's pairs in one order (x[b]'s, with 2 threads, in any).
-    # An eager pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be
-    # recycled by the allocator instead of page-faulted in afresh by every op; a compiled kernel
-    # keeps none, so it shades every pair at once (no copy to join the passes).
-    step = max(1, len(b) if compile else PASS_PIXELS // tile**2)
     dx, dy = tile_offsets(tile, x)
     if brush.varies(width):
         key = stroke_keys(brush.seed, torch.arange(first, first + len(x), device=x.device))[b]
     else:
         key = t  # an int64 a pair, unread
-    passes = [shade(shade_tiles, brush, (xs, ts, ks), (dx, dy), height=height, width=width, tile=tile, softness=softness)
-              for xs, ts, ks in zip(x.index_select(0, b).split(step), t.split(step), key.split(step))]
+    xs = x.index_select(0, b)
+    shade = eager
+    if sized is not None:
+        canvas = torch.tensor([height, width], dtype=x.dtype, device=x.device)
+        if prepare(shade_any_size, sized, (xs.detach(), t, key), (dx, dy, canvas), build=build, tile=tile,
+                   softness=softness):
+            shade = (lambda stage, brush, paired, fixed, **consts:
+                     AnySizeShade.apply(*paired, *fixed, canvas, sized, consts["tile"], consts["softness"], build))
+    elif compile and prepare(shade_tiles, brush, (xs.detach(), t, key), (dx, dy), build=build, height=height,
+                             width=width, tile=tile, softness=softness):
+        shade = kernel
+    # An eager pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be
+    # recycled by the allocator instead of page-faulted in afresh by every op; a compiled kernel
+    # keeps none, so it shades every pair at once (no copy to join the passes).
+    step = max(1, len(b) if shade is not eager else PASS_PIXELS // tile**2)
+    passes = [shade(shade_tiles, brush, (xp, tp, kp), (dx, dy), height=height, width=width, tile=tile, softness=softness)
+              for xp, tp, kp in zip(xs.split(step), t.split(step), key.split(step))]
     fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
     return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
 
@@ -178,18 +189,19 @@ class AnySizeShade(torch.autograd.Function):
 
     @staticmethod
     def forward(ctx, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, canvas: Tensor, brush: Brush,
-                tile: int, softness: float) -> tuple[Tensor, Tensor]:
+                tile: int, softness: float, build: bool = True) -> tuple[Tensor, Tensor]:
         ctx.save_for_backward(x, t, key, dx, dy, canvas)
-        ctx.brush, ctx.consts = brush, {"tile": tile, "softness": softness}
-        return fused(shade_any_size, brush, (x, t, key), (dx, dy, canvas), **ctx.consts)
+        ctx.brush, ctx.consts, ctx.build = brush, {"tile": tile, "softness": softness}, build
+        return fused(shade_any_size, brush, (x, t, key), (dx, dy, canvas), build=build, **ctx.consts)
 
     @staticmethod
     def backward(ctx, grad_fg: Tensor | None, grad_alpha: Tensor | None):
         x, t, key, dx, dy, canvas = ctx.saved_tensors
         grad_fg = x.new_zeros(len(x), 3, len(dx)) if grad_fg is None else grad_fg
         grad_alpha = x.new_zeros(len(x), len(dx)) if grad_alpha is None else grad_alpha
-        grad = fused(shade_any_size_grad, ctx.brush, (x, t, key, grad_fg, grad_alpha), (dx, dy, canvas), **ctx.consts)
-        return (grad,) + (None,) * 8
+        grad = fused(shade_any_size_grad, ctx.brush, (x, t, key, grad_fg, grad_alpha), (dx, dy, canvas), build=ctx.build,
+                     **ctx.consts)
+        return (grad,) + (None,) * 9
 
 
 def pixel_lines(stroke: Tensor, tile: Tensor, channels: int, side: int, rows: int, cols: int) -> Tensor:
@@ -231,7 +243,7 @@ def render(
     *,
     softness: float | None = None,
     tile: int = 8,
-    compile: bool = False,
+    compile: bool | None = False,
     out: Tensor | None = None,
 ) -> tuple[Tensor, Tensor]:
     """Render strokes on their own, each on an empty canvas.
@@ -243,7 +255,8 @@ def render(
         softness: ``None`` for the antialiased engine; a width in pixels for the soft,
             differentiable mode (the painter's ``analytic`` renderer).
         tile: tile side in pixels.
-        compile: shade the pixels through the compiled path (see :func:`rasterize`).
+        compile: shade the pixels through the compiled path: True, compiling its kernels first where
+            this machine has none; None, where it has them; False, never (see :func:`rasterize`).
         out: optional (B, 4, H, W) tensor to render into, reused across calls: a fresh tensor of
             tens of megabytes costs the operating system's page faults on every call.
 
@@ -355,7 +368,7 @@ def _layers(tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int]):
 
 
 def _block_tiles(brush: Brush, x: Tensor, block: Tensor, blocks: int, size: int, softness: float, tile: int,
-                 compile: bool) -> tuple[Tiles, Tensor, int]:
+                 compile: bool | None) -> tuple[Tiles, Tensor, int]:
     """Strokes x (N, d) shaded in the soft mode on the tiles of their blocks (``block`` (N,) of
     ``blocks`` blocks of ``size`` px): their :class:`Tiles`, each pair's tile among all the blocks'
     (P,), and the tiles a block."""
@@ -365,7 +378,7 @@ def _block_tiles(brush: Brush, x: Tensor, block: Tensor, blocks: int, size: int,
 
 
 def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, softness: float, tile: int = 8,
-                     compile: bool = False) -> Tensor:
+                     compile: bool | None = False) -> Tensor:
     """Strokes x (N, d), in painting order, each painted in the soft mode over its block's
     background: ``block`` (N,) indexes ``under`` (B, 3, s, s); returns the blocks (B, 3, s, s),
     differentiable in x and under.
@@ -386,7 +399,7 @@ def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, s
 
 
 def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor, *,
-                softness: float, tile: int = 8, compile: bool = False) -> Tensor:
+                softness: float, tile: int = 8, compile: bool | None = False) -> Tensor:
     """How much each stroke x (N, d), painted alone in the soft mode over its block's ``canvas``,
     lowers the block's error Σ weights·|canvas − goal|: (N,). ``block`` (N,) indexes canvas and
     goal (B, 3, s, s) and weights (B, 1, s, s). Only the tiles a stroke touches are scored, where

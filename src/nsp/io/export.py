@@ -15,7 +15,6 @@ from nsp.colors import hex_color
 from nsp.colors import parse_color
 from nsp.brushes.svg import image_element
 from nsp.engine.canvas import TiledCanvas, paint_canvas
-from nsp.engine.fused import pays
 from nsp.errors import BadInput
 from nsp.files import atomic_path
 
@@ -55,8 +54,8 @@ class Animation:
         brush, background: the painting's.
         strokes: how many it has.
         height, width: the animation's size in pixels.
-        compile: shade on the compiled path; None: where it is expected to finish sooner
-            (:func:`~nsp.engine.fused.pays`).
+        compile: shade on the compiled path, its kernels compiled first where missing; None: where
+            this machine has them (:func:`~nsp.engine.fused.choose`); False: never.
         device: where the strokes are.
     """
 
@@ -77,11 +76,10 @@ class Animation:
             return
         stops = [end - first for end in self.ends if first < end <= first + count]  # this part's frames
         frames = set(stops)
-        compile = pays(self.brush, strokes, self.height, self.width) if self.compile is None else self.compile
         done = 0
         with torch.no_grad():
             for stop in self.canvas.paint_until(self.brush, strokes, stops if stops[-1:] == [count] else stops + [count],
-                                                compile=compile, first=first):
+                                                compile=self.compile, first=first):
                 self.since.append(strokes[done:stop])
                 done = stop
                 if stop in frames:

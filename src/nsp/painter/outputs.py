@@ -11,7 +11,6 @@ from nsp.brushes import Brush
 from nsp.colors import parse_color
 from nsp.engine import paint_canvas
 from nsp.engine.canvas import TiledCanvas
-from nsp.engine.fused import pays
 from nsp.images import long_side, psnr, resize, ssim
 from nsp.io.export import Animation, painted_elements, write_png, write_svg
 from nsp.io.strokes import StrokeFile, save_strokes
@@ -43,17 +42,22 @@ class PaintingFiles:
         strokes: how many the painting has.
         workers: threads (of one torch thread each) the work is shared on.
         device: where the strokes are, and the canvases are painted.
+        compile: shade final.png's and the GIF's strokes on the engine's compiled kernels: True,
+            compiled first where this machine has none; None (auto), where it has them
+            (``python -m nsp.engine`` compiles them; :func:`nsp.engine.fused.choose`); False, never.
     """
 
     def __init__(self, out: Path, brush: Brush, photo: Tensor, background: str, render_size: int,
-                 animation_size: int, frames: int | None, strokes: int, workers: int = 1, device: torch.device | str = "cpu"):
-        self.out, self.brush, self.background, self.workers = out, brush, background, workers
+                 animation_size: int, frames: int | None, strokes: int, workers: int = 1, device: torch.device | str = "cpu",
+                 compile: bool | None = None):
+        self.out, self.brush, self.background, self.workers, self.compile = out, brush, background, workers, compile
         aspect = photo.shape[-2:]
         self.photo = resize(photo.cpu(), long_side(*aspect, SCORE_SIZE))  # as similarity() compares it
         self.height, self.width = long_side(*aspect, render_size)
         color = torch.tensor(parse_color(background), device=device)[:, None, None]
         self.canvas = TiledCanvas(color.expand(3, self.height, self.width))
-        self.animation = Animation(brush, strokes, *long_side(*aspect, animation_size), background, frames, device=device)
+        self.animation = Animation(brush, strokes, *long_side(*aspect, animation_size), background, frames, compile,
+                                   device)
         self.elements: list[tuple[str, str]] = []  # painting.svg's, of the strokes painted
         self.count = 0  # strokes painted
 
@@ -61,8 +65,7 @@ class PaintingFiles:
         """Paint the next ``strokes`` (n, d) onto final.png's canvas, and make their SVG elements."""
         images = [] if self.brush.svg_painted else None
         with torch.no_grad():
-            self.canvas.paint(self.brush, strokes, compile=pays(self.brush, strokes, self.height, self.width),
-                              first=self.count, images=images)
+            self.canvas.paint(self.brush, strokes, compile=self.compile, first=self.count, images=images)
         if images is None:
             self.elements += self.brush.svg_elements(strokes.detach().cpu().double().numpy(), self.height, self.width,
                                                      self.count)
@@ -99,11 +102,12 @@ class PaintingFiles:
 
 
 def write_files(out: Path, strokes: Tensor, brush: Brush, photo: Tensor, background: str, render_size: int,
-                animation_size: int, frames: int | None, workers: int) -> dict[str, float]:
+                animation_size: int, frames: int | None, workers: int, compile: bool | None = None) -> dict[str, float]:
     """Write every file of a painting of ``strokes`` (N, d) of ``photo`` (3, H, W) at once
-    (:class:`PaintingFiles`, on ``workers`` threads); returns final.png's :func:`similarity` to it."""
+    (:class:`PaintingFiles`, on ``workers`` threads, ``compile`` as its); returns final.png's
+    :func:`similarity` to it."""
     files = PaintingFiles(out, brush, photo, background, render_size, animation_size, frames, len(strokes), workers,
-                          strokes.device)
+                          strokes.device, compile)
     return files.finish(strokes)
 
 

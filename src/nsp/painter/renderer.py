@@ -18,7 +18,6 @@ from torch import Tensor, nn
 from nsp.brushes import Brush
 from nsp.engine import composite, render
 from nsp.engine.raster import composite_blocks, paint_gains
-from nsp.engine.fused import soft_pays
 from nsp.errors import BadInput
 from nsp.renderers.checkpoint import load_renderer
 
@@ -33,9 +32,12 @@ class AnalyticRenderer:
         block_size: the largest block side rendered; bigger blocks are optimized downsampled.
         compile: the soft shading, forward and back, by its compiled kernels, one for every block
             size (:class:`nsp.engine.raster.AnySizeShade`): the same strokes, to float rounding, faster.
+            True: compiled first where this machine has none; None (auto): where it has them
+            (``python -m nsp.engine`` compiles them; :func:`nsp.engine.fused.choose`); False: never.
     """
 
-    def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64, compile: bool = False):
+    def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64,
+                 compile: bool | None = False):
         self.brush, self.block_size = brush, block_size
         self.softness = brush.softness if softness is None else softness
         self.compile = compile
@@ -105,13 +107,10 @@ def load_neural(path: str | Path, brush: Brush, device: torch.device | str = "cp
 def build_renderer(cfg: Any, brush: Brush, device: torch.device | str = "cpu",
                    strokes: int = 0) -> AnalyticRenderer | NeuralRenderer:
     """The painter's renderer a config's ``renderer`` node (nsp.painter.schema.RendererConfig) names:
-    the analytic one (``compile`` None: compiled where painting ``strokes`` strokes pays,
-    :func:`~nsp.engine.fused.soft_pays`), or the network of its checkpoint on ``device``."""
+    the analytic one (``compile`` true, false or null: auto, as :class:`AnalyticRenderer`'s), or the
+    network of its checkpoint on ``device``. ``strokes``: how many the painting has (unused)."""
     if cfg.name == "analytic":
-        renderer = AnalyticRenderer(brush, cfg.softness, cfg.block_size, bool(cfg.compile))
-        if cfg.compile is None:  # the estimates are the CPU's
-            renderer.compile = torch.device(device).type == "cpu" and soft_pays(brush, renderer.softness, strokes, cfg.block_size)
-        return renderer
+        return AnalyticRenderer(brush, cfg.softness, cfg.block_size, cfg.compile)
     if cfg.checkpoint is None:
         raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
     return load_neural(cfg.checkpoint, brush, device)

@@ -201,7 +201,8 @@ def paint(cfg: DictConfig, photo: torch.Tensor | None = None, brush_named: bool 
             log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
             files = time.perf_counter()
             scores = write_files(out, strokes, brush, photo, background, cfg.render_size, cfg.animation_size,
-                                 cfg.animation_frames, workers=min(3, torch.get_num_threads()))
+                                 cfg.animation_frames, workers=min(3, torch.get_num_threads()),
+                                 compile=cfg.renderer.compile)
         except BaseException:
             with shielded():
                 write_strokes_and_png(out, strokes, brush, photo.shape[-2:], background, cfg.render_size)  # styled, if it was

@@ -25,8 +25,9 @@ class RendererConfig:
     name: RendererName = RendererName.analytic
     softness: Optional[float] = None  # analytic: edge width in block pixels; None: the brush's own (Brush.softness)
     block_size: int = 64  # analytic: blocks are optimized at most this many pixels wide
-    # analytic: the soft shading, forward and back, by its compiled kernels (nsp.engine.raster.AnySizeShade; the
-    # first time on a machine 20–60 s a brush, loaded in ms later); None: where it is expected to pay (soft_pays)
+    # analytic: the soft shading, forward and back, by its compiled kernels (nsp.engine.raster.AnySizeShade), faster:
+    # true, compiled first where this machine has none (20–60 s a brush, once a machine); null (auto): those it has,
+    # eagerly where it has none, saying which `python -m nsp.engine BRUSH` compiles them; false, never
     compile: Optional[bool] = None
     checkpoint: Optional[str] = None  # neural: path of the checkpoint (required)
 

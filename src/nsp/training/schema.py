@@ -44,7 +44,9 @@ class DataConfig:
     test_seed: int = 0  # while choices (learning rates) are made on the validation strokes
     num_workers: int = 1  # processes rendering training batches alongside training
     render_on_device: bool = False  # render training batches on the training device (GPU) instead
-    compile: bool = False  # draw through the engine's compiled kernels (nsp.engine.fused): faster, after a one-off compile
+    # draw through the engine's compiled kernels (nsp.engine.fused), faster: true, compiled first where missing (20–60 s
+    # once a machine); null, those this machine has (python -m nsp.engine BRUSH compiles them); false, never
+    compile: Optional[bool] = False
 
 
 Interval = StrEnum("Interval", {"epoch": "epoch", "step": "step"})  # Hydra rejects any other at compose time
