@@ -32,6 +32,7 @@ demo: setup
 CAPABILITIES := avx2 default
 
 test: setup
+	$(BIN)/python -m nsp.engine  # every brush's kernels (the tests draw them all), once a machine
 	$(BIN)/python -m pytest -n 2
 	for isa in $(CAPABILITIES); do echo "numerics with ATEN_CPU_CAPABILITY=$$isa"; \
 		ATEN_CPU_CAPABILITY=$$isa $(BIN)/python -m pytest -n 2 -q -m numerics || exit 1; done
