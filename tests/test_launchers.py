@@ -91,7 +91,8 @@ def test_sigterm_stops_a_submitit_local_training_sweep_whose_workers_keep_their_
     assert run.wait(timeout=120) == 130
     assert run.stderr.read().strip().splitlines()[-1] == (
         f"interrupted: each of the 2 jobs kept what it had; per job: python -m nsp.report {tmp_path}")
-    assert [metrics(job)["status"] for job in jobs] == ["interrupted", "interrupted"]
+    statuses = [metrics(job)["status"] for job in jobs]  # job 1, a process of its own, may be done first on a busy machine
+    assert statuses[0] == "interrupted" and statuses[1] in ("interrupted", "completed")
     assert 0 < metrics(jobs[0])["steps"] < 60 and (jobs[0] / "checkpoints" / "last.ckpt").is_file()
     workers = [int(p.name) for p in (tmp_path / ".submitit").iterdir() if p.name.isdigit()]  # submitit's: named by pid
     workers += [int(p.name.split(".")[-2]) for job in jobs for p in job.glob("events.out.tfevents.*")]  # the jobs'
@@ -99,5 +100,6 @@ def test_sigterm_stops_a_submitit_local_training_sweep_whose_workers_keep_their_
 
     again = subprocess.run(sweep, capture_output=True, text=True, timeout=300)
     assert again.returncode == 0, again.stderr[-2000:]
-    assert f"resuming the sweep in {tmp_path}: 0 completed jobs kept, the rest run, training from its last.ckpt" in again.stdout
+    kept = "1 completed job" if statuses[1] == "completed" else "0 completed jobs"
+    assert f"resuming the sweep in {tmp_path}: {kept} kept, the rest run, training from its last.ckpt" in again.stdout
     assert [(metrics(job)["status"], metrics(job)["steps"]) for job in jobs] == [("completed", 60)] * 2
