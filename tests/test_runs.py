@@ -2,6 +2,7 @@
 and command lines whose paths and colours need no quoting."""
 import copy
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -285,6 +286,17 @@ def test_a_limit_of_the_machine_ends_a_run_in_one_line_naming_what_it_kept(error
     assert "kept paint.log, strokes.json" in line and (tmp_path / "strokes.json").is_file()
     with pytest.raises(ZeroDivisionError):  # a bug is no limit: its traceback stays
         run_job(OmegaConf.create({"output_dir": str(tmp_path)}), lambda cfg: 1 / 0)
+
+
+def test_numpys_openblas_starts_no_threads_of_its_own_unless_the_user_asks():
+    """Where a limit on processes refuses OpenBLAS a thread, it raises SIGINT (a run ended "interrupted",
+    exit 130, under ``prlimit --nproc=4``): nsp leaves it one thread, so it starts none."""
+    script = "import os, nsp, numpy; print(os.environ['OPENBLAS_NUM_THREADS'])"
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    for given, expected in ((None, "1"), ("2", "2")):
+        told = env if given is None else env | {"OPENBLAS_NUM_THREADS": given}
+        done = subprocess.run([sys.executable, "-c", script], env=told, capture_output=True, text=True, check=True)
+        assert done.stdout.strip() == expected
 
 
 def test_paths_and_colours_are_quoted_for_hydra_where_it_needs_it():

@@ -15,6 +15,10 @@ if "OMP_WAIT_POLICY" not in os.environ:
 # on an idle one. Its strict mode sums in one order: the same strokes either way (the painter's are
 # the same bytes in both modes, the demo's and 2000 watercolor strokes'; docs/painting.md).
 os.environ.setdefault("MKL_CBWR", "AUTO,STRICT")
+# numpy's OpenBLAS starts a thread a core as numpy loads and, where a limit on processes (ulimit -u)
+# refuses one, raises SIGINT: a painting then ended as if interrupted (exit 130). nsp's numpy work is
+# small (torch's own threads do the sums), so OpenBLAS gets one thread unless the user set a count.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 __version__ = "0.1.0"
 
