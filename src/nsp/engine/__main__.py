@@ -38,8 +38,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     names = list(dict.fromkeys(args.brushes)) or list(BRUSHES)
     widths = tuple(dict.fromkeys(args.width or fused.FILE_WIDTHS))
-    print(f"compiling the painter's kernels of {', '.join(names)} into {fused.CACHE} "
-          "(once a machine, 20–60 s a kernel set)…", flush=True)
+    print(f"the painter's kernels of {', '.join(names)} in {fused.CACHE}: compiled where missing (once a machine, "
+          "20–60 s a kernel set), checked where there…", flush=True)
     jobs = [(name, None) for name in names]
     for name in names:  # a job a detail: widths drawn alike share one kernel
         details: dict[str, int] = {}
