@@ -74,16 +74,16 @@ class PaintingFiles:
         self.count += len(strokes)
 
     def finish(self, strokes: Tensor) -> dict[str, float]:
-        """Write ``strokes.json``, ``final.png``, ``painting.svg`` and, beside them, ``animation.gif``
-        of all the painting's ``strokes`` (N, d), those not yet added painted first; returns final.png's
-        :func:`similarity` to the photo."""
+        """Write ``strokes.json`` of all the painting's ``strokes`` (N, d) first (a process killed
+        while it draws the rest keeps the painting itself), then ``final.png``, ``painting.svg`` and,
+        beside them, ``animation.gif``; returns final.png's :func:`similarity` to the photo."""
+        save_strokes(self.out / "strokes.json", StrokeFile(self.brush, strokes, self.height, self.width, self.background))
         threads = torch.get_num_threads()
         torch.set_num_threads(1)  # a file a core: each file's ops are too small to split well
         try:
             with ThreadPoolExecutor(1) as pool:
                 gif = pool.submit(self._write_gif, strokes)
                 self._paint(strokes[self.count:])
-                save_strokes(self.out / "strokes.json", StrokeFile(self.brush, strokes, self.height, self.width, self.background))
                 final = self.canvas.image()
                 write_png(self.out / "final.png", final)
                 write_svg(self.out / "painting.svg", self.brush, strokes, self.height, self.width, self.background,
