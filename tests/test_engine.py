@@ -388,29 +388,23 @@ def test_compile_true_on_a_full_disk_goes_eager_without_compiling_again(generato
 
 
 @pytest.fixture
-def full_disk(tmp_path):
-    """A 3-MB filesystem holding a kernel of tape's and full, where this machine lets the tests mount one."""
+def full_disk(tmpfs):
+    """A 3-MB filesystem holding a kernel of tape's and full."""
     from nsp.engine import fused
 
-    disk = tmp_path / "disk"
-    disk.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(disk)], capture_output=True).returncode:
-        pytest.skip("this machine does not let the tests mount a tmpfs; the mocked full disks above stand in")
-    consts, cpu = dict(softness=None, tile=8), torch.device("cpu")
     kernel = kernel_on_this_machine(fused.shade_any_size, BRUSHES["tape"], None)
-    copy = disk / "nsp" / "kernels" / kernel.relative_to(fused.CACHE)
+    copy = tmpfs / "nsp" / "kernels" / kernel.relative_to(fused.CACHE)
     copy.parent.mkdir(parents=True)
     copy.write_bytes(kernel.read_bytes())
-    (disk / "tmp").mkdir()
-    with open(disk / "taken", "wb") as taken:  # every byte left
+    (tmpfs / "tmp").mkdir()
+    with open(tmpfs / "taken", "wb") as taken:  # every byte left
         try:
             while True:
                 taken.write(bytes(64 * 1024))
                 taken.flush()
         except OSError:
             pass
-    yield disk
-    subprocess.run(["umount", "--lazy", str(disk)], check=True)
+    return tmpfs
 
 
 def test_a_full_disk_under_the_cache_and_the_temporary_dir_never_aborts_a_render(full_disk):
