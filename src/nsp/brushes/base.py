@@ -89,6 +89,15 @@ class Brush:
         """Number of parameters of one stroke."""
         return len(self.params)
 
+    def column(self, name: str) -> int:
+        """Where parameter ``name`` lies in a stroke's parameters: ``x[:, brush.column("theta")]`` is (N,)."""
+        return self.params.index(name)
+
+    def columns(self, first: str, last: str | None = None) -> slice:
+        """Parameters ``first`` to ``last`` (default: ``first`` alone) of a stroke's parameters, a plain
+        slice: ``x[:, brush.columns("R0", "B0")]`` is (N, 3), ``x[:, brush.columns("r0")]`` (N, 1)."""
+        return slice(self.column(first), self.column(last or first) + 1)
+
     def sample(self, n: int, generator: torch.Generator | None = None, device=None) -> Tensor:
         """Uniform random strokes over the whole parameter space: (n, d) in [0, 1]."""
         return torch.rand(n, self.d, generator=generator, device=device)
@@ -144,5 +153,6 @@ class Brush:
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple["Brush", np.ndarray]:
         """Strokes in the reference implementation's convention (``x_ctt`` (N, c), ``x_color``
         (N, k), ``x_alpha`` (N, 1), pixel sizes at canvas width ``width``) -> the brush that paints
-        them and their parameters (N, d) in [0, 1]."""
+        them and their parameters (N, d) in [0, 1]. ``x_ctt``'s columns are the shape parameters', in
+        this brush's order (the marker pen's have a second radius, unused)."""
         raise NotImplementedError

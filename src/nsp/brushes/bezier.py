@@ -8,10 +8,13 @@ from torch import Tensor
 from nsp.brushes.base import Pixels
 from nsp.brushes.geometry import bezier_polyline, project_polyline, segments_for, to_pixels
 
+CONTROL = ("x0", "y0", "x1", "y1", "x2", "y2")  # P0, P1, P2: the parameters every Bézier brush starts with
+_XS, _YS = slice(0, len(CONTROL), 2), slice(1, len(CONTROL), 2)  # their x0, x1, x2 and y0, y1, y2
+
 
 def control_points(x: Tensor, height: int, width: int) -> Tensor:
-    """P0, P1, P2 of x[:, 0:6] = x0, y0, x1, y1, x2, y2 in pixels: (P, 3, 2)."""
-    return torch.stack(to_pixels(x[:, 0:6:2], x[:, 1:6:2], height, width), -1)
+    """P0, P1, P2 (:data:`CONTROL`) of strokes x (P, d) in pixels: (P, 3, 2)."""
+    return torch.stack(to_pixels(x[:, _XS], x[:, _YS], height, width), -1)
 
 
 def point(pts: Tensor, t: Tensor) -> tuple[Tensor, Tensor]:
@@ -47,7 +50,7 @@ def distance_bound(x: Tensor, pix: Pixels, r0: Tensor, r2: Tensor) -> Tensor:
 def from_reference(ctt: np.ndarray, radii: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> np.ndarray:
     """Reference Bézier strokes -> parameters (N, d): its control point P1 is relative,
     x1' = x0 + (x2 − x0)·x1 (likewise y), and its radii ``radii`` (N, k) are 1 + r·W/4 pixels."""
-    x0, y0, x1, y1, x2, y2 = ctt[:, :6].T
+    x0, y0, x1, y1, x2, y2 = ctt[:, :len(CONTROL)].T
     shape = np.stack([x0, y0, x0 + (x2 - x0) * x1, y0 + (y2 - y0) * y1, x2, y2], 1)
     sizes = (1 + radii * width / 4) / (width / 4)
     return np.clip(np.concatenate([shape, sizes, color, alpha], 1), 0, 1)

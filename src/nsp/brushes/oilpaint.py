@@ -17,7 +17,7 @@ from torch import Tensor
 
 from nsp.brushes import bristles
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.tape import rectangle, rectangle_extent
+from nsp.brushes.tape import RECTANGLE, rectangle, rectangle_extent
 from nsp.brushes.texture import EMBEDDED, load_texture
 from nsp.brushes.geometry import box
 
@@ -97,7 +97,7 @@ class OilPaint(Brush):
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         alpha, paint, u = self._surface(x, pix, coverage)
-        c0, c2 = x[:, 5:8, None], x[:, 8:11, None]
+        c0, c2 = x[:, self.columns("R0", "B0"), None], x[:, self.columns("R2", "B2"), None]
         color = c0 + (c2 - c0) * u[:, None]
         if paint.shade is not None:
             color = color * paint.shade[:, None]
@@ -107,7 +107,7 @@ class OilPaint(Brush):
         """Alpha (P, N), the paint (:class:`~nsp.brushes.bristles.Surface`) and u ∈ [0, 1] (P, N),
         0 at the head, of strokes ``x`` (P, d) at the pixels ``pix``."""
         along, across, half_w, half_h = rectangle(x, pix)
-        light = bristles.light_across(x[:, 4]) if self.impasto else None
+        light = bristles.light_across(x[:, self.column("theta")]) if self.impasto else None
         length = 2 * half_w
         s = along + half_w[:, None]  # pixels from the head
         u = (s / length.clamp(min=0.5)[:, None]).clamp(0, 1)
@@ -132,13 +132,14 @@ class OilPaint(Brush):
         return bristles.Surface((value / _OPAQUE).clamp(0, 1), shade, torch.full_like(value, -math.inf))
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
-        sizes = (1 + ctt[:, 2:4] * width) / width  # extents 1 + w·W px -> fraction of W; its alpha is unused
-        return self, np.clip(np.concatenate([ctt[:, :2], sizes, ctt[:, 4:5], color], 1), 0, 1)
+        sizes = (1 + ctt[:, self.columns("w", "h")] * width) / width  # extents 1 + w·W px -> fraction of W; its alpha is unused
+        parts = [ctt[:, self.columns("x", "y")], sizes, ctt[:, self.columns("theta")], color]
+        return self, np.clip(np.concatenate(parts, 1), 0, 1)
 
 
 OILPAINT = OilPaint(
     name="oilpaint",
-    params=("x", "y", "w", "h", "theta", "R0", "G0", "B0", "R2", "G2", "B2"),
+    params=RECTANGLE + ("R0", "G0", "B0", "R2", "G2", "B2"),
     kinds=("x", "y", "size", "size", "angle") + ("color",) * 6,
     shape=(0, 1, 2, 3, 4),
     color=tuple(range(5, 11)),

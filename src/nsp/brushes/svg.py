@@ -1,5 +1,4 @@
-"""What the brushes' SVG elements share: colours, embedded images, the unit-square frame of a
-rectangle stroke."""
+"""What the brushes' SVG elements share: embedded images, a Bézier stroke's control points."""
 from __future__ import annotations
 
 import base64
@@ -7,7 +6,7 @@ import io
 
 import numpy as np
 
-UNIT = 'x="-0.5" y="-0.5" width="1" height="1"'  # the unit square a rectangle stroke is drawn in
+from nsp.brushes.bezier import CONTROL
 
 
 def png_data_uri(image: np.ndarray) -> str:
@@ -27,12 +26,6 @@ def image_element(left: int, top: int, image: np.ndarray) -> str:
     return f'<image x="{left - 0.5}" y="{top - 0.5}" width="{w}" height="{h}" href="{png_data_uri(image)}"/>'
 
 
-def rectangle_frame(p: np.ndarray, height: int, width: int) -> str:
-    """The transform taking the unit square to the rectangle p[0:5] = x, y, w, h, θ, in pixels."""
-    cx, cy, w, h = p[0] * (width - 1), p[1] * (height - 1), max(p[2] * width, 1e-3), max(p[3] * width, 1e-3)
-    return f'transform="translate({cx:.3f} {cy:.3f}) rotate({p[4] * 180:.3f}) scale({w:.3f} {h:.3f})"'
-
-
 def bezier_points(p: np.ndarray, height: int, width: int) -> np.ndarray:
-    """P0, P1, P2 of p[0:6] = x0, y0, x1, y1, x2, y2 in pixels: (3, 2)."""
-    return p[:6].reshape(3, 2) * [width - 1, height - 1]
+    """P0, P1, P2 (:data:`~nsp.brushes.bezier.CONTROL`) of one stroke's parameters p (d,) in pixels: (3, 2)."""
+    return p[:len(CONTROL)].reshape(3, 2) * [width - 1, height - 1]

@@ -17,24 +17,25 @@ from nsp.colors import hex_color
 
 class Watercolor(Brush):
     def extent(self, x: Tensor, height: int, width: int) -> Tensor:
-        return bezier.extent(x, torch.maximum(x[:, 6], x[:, 7]) * width / 4, height, width)
+        r0, r2 = x[:, self.column("r0")], x[:, self.column("r2")]
+        return bezier.extent(x, torch.maximum(r0, r2) * width / 4, height, width)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
-        return bezier.distance_bound(x, pix, x[:, 6:7] * pix.width / 4, x[:, 7:8] * pix.width / 4)
+        return bezier.distance_bound(x, pix, *self._radii(x, pix.width))
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         pts = bezier.control_points(x, pix.height, pix.width)
-        r0, r2 = x[:, 6:7] * pix.width / 4, x[:, 7:8] * pix.width / 4  # radii in pixels
+        r0, r2 = self._radii(x, pix.width)
         t, rows, later = swept_discs(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, (r2 - r0)[:, 0])
         cov = coverage(self._disc_distance(pts, t, r0, r2, pix))
-        c0, c2 = x[:, 8:11, None], x[:, 11:14, None]
+        c0, c2 = x[:, self.columns("R0", "B0"), None], x[:, self.columns("R2", "B2"), None]
         color = c0 + (c2 - c0) * t[:, None]
         # the later pass of the strokes that curl over a pixel, drawn on top
         curled = Pixels(pix.px.expand_as(t)[rows], pix.py.expand_as(t)[rows], pix.height, pix.width)
         over = coverage(self._disc_distance(pts[rows], later, r0[rows], r2[rows], curled))
         color = color.index_add(0, rows, over[:, None] * (c2 - c0)[rows] * (later - t[rows])[:, None])
         fg = color * (cov > 0)[:, None]
-        return fg, x[:, 14:15] * cov
+        return fg, x[:, self.alpha, None] * cov
 
     def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
         """The swept discs as pieces in order of t, each an outline and its end discs filled with
@@ -44,7 +45,7 @@ class Watercolor(Brush):
         start, end = pts[1] - pts[0], pts[2] - pts[1]
         turn = math.atan2(abs(start[0] * end[1] - start[1] * end[0]), float(start @ end))
         pieces = 1 + math.ceil(turn / (math.pi / 8))
-        r0, r2 = p[6] * width / 4, p[7] * width / 4
+        r0, r2 = p[self.column("r0")] * width / 4, p[self.column("r2")] * width / 4
         ends = np.linspace(0, 1, pieces + 1)
         t = np.stack([np.linspace(a, b, max(3, math.ceil(32 / pieces) + 1)) for a, b in zip(ends[:-1], ends[1:])])[..., None]
         at = (1 - t) ** 2 * pts[0] + 2 * (1 - t) * t * pts[1] + t**2 * pts[2]  # (pieces, m, 2): every piece at once
@@ -53,7 +54,8 @@ class Watercolor(Brush):
         radius = r0 + (r2 - r0) * t
         outlines = np.concatenate([at + radius * normal, np.flip(at - radius * normal, 1)], 1)  # (pieces, 2m, 2)
         points = " ".join(["%.2f,%.2f"] * outlines.shape[1])  # one %-format a piece: the SVG of thousands of strokes is this loop
-        colors = [hex_color(p[8:11] + (p[11:14] - p[8:11]) * u) for u in ends]
+        c0, c2 = p[self.columns("R0", "B0")], p[self.columns("R2", "B2")]
+        colors = [hex_color(c0 + (c2 - c0) * u) for u in ends]
         defs, body = [], []
         for k in range(pieces):
             (xa, ya), (xb, yb) = at[k, 0], at[k, -1]
@@ -63,10 +65,14 @@ class Watercolor(Brush):
             body.append(f'<g fill="url(#g{index}_{k})"><polygon points="{points % tuple(outlines[k].ravel())}"/>'
                         f'<circle cx="{xa:.3f}" cy="{ya:.3f}" r="{radius[k, 0, 0]:.3f}"/><circle cx="{xb:.3f}" cy="{yb:.3f}" '
                         f'r="{radius[k, -1, 0]:.3f}"/></g>')
-        return "".join(defs), f'<g opacity="{p[14]:.4f}">{"".join(body)}</g>'
+        return "".join(defs), f'<g opacity="{p[self.alpha]:.4f}">{"".join(body)}</g>'
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
-        return self, bezier.from_reference(ctt, ctt[:, 6:8], color, alpha, width)
+        return self, bezier.from_reference(ctt, ctt[:, self.columns("r0", "r2")], color, alpha, width)
+
+    def _radii(self, x: Tensor, width: int | Tensor) -> tuple[Tensor, Tensor]:
+        """r0, r2 of strokes x (P, d) in pixels on a canvas ``width`` px wide: (P, 1) each."""
+        return x[:, self.columns("r0")] * width / 4, x[:, self.columns("r2")] * width / 4
 
     @staticmethod
     def _disc_distance(pts: Tensor, t: Tensor, r0: Tensor, r2: Tensor, pix: Pixels) -> Tensor:
@@ -77,7 +83,7 @@ class Watercolor(Brush):
 
 WATERCOLOR = Watercolor(
     name="watercolor",
-    params=("x0", "y0", "x1", "y1", "x2", "y2", "r0", "r2", "R0", "G0", "B0", "R2", "G2", "B2", "A"),
+    params=bezier.CONTROL + ("r0", "r2", "R0", "G0", "B0", "R2", "G2", "B2", "A"),
     kinds=("x", "y", "x", "y", "x", "y", "size", "size") + ("color",) * 6 + ("alpha",),
     shape=tuple(range(8)),
     color=tuple(range(8, 14)),
