@@ -9,7 +9,7 @@ from hydra import compose, initialize_config_dir
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 
-import nsp.painter.schema  # noqa: F401  (registers ``paint_schema``)
+import nsp.painting.schema  # noqa: F401  (registers ``paint_schema``)
 from nsp.training.run import train
 from nsp.training.schema import register_configs
 

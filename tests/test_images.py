@@ -185,7 +185,7 @@ def test_ssim_is_skimages_gaussian_ssim(channels):
 
 def test_a_painting_of_a_strip_is_scored():
     """A 12 × 600 photo is 5 px high at the 256-px scoring size, under SSIM's 11-px window."""
-    from nsp.painter.outputs import similarity
+    from nsp.painting.outputs import similarity
 
     generator = torch.Generator().manual_seed(0)
     photo = torch.rand(3, 12, 600, generator=generator)

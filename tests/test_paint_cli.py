@@ -18,8 +18,8 @@ from PIL import Image, ImageSequence
 from nsp.brushes import BRUSHES
 from nsp.errors import BadInput
 from nsp.io.strokes import load_strokes
-from nsp.painter.run import paint
-from nsp.painter.schema import PaintConfig  # noqa: F401  (registers ``paint_schema`` and the ``brush`` group)
+from nsp.painting.run import paint
+from nsp.painting.schema import PaintConfig, paint_settings  # registers ``paint_schema`` and the ``brush`` group
 
 CONF = Path(__file__).parents[1] / "conf" / "paint"
 TINY = ["strokes=12", "work_size=48", "render_size=96", "animation_size=48", "animation_frames=4", "progress=false",
@@ -37,9 +37,9 @@ def photo(tmp_path) -> Path:
     return path
 
 
-def config(*overrides: str):
+def config(*overrides: str) -> PaintConfig:
     with initialize_config_dir(str(CONF), version_base="1.3"):
-        return compose("paint", overrides=list(overrides))
+        return paint_settings(compose("paint", overrides=list(overrides)))
 
 
 def test_a_painting_leaves_every_file_valid(photo, tmp_path):
@@ -81,7 +81,7 @@ def test_a_painting_leaves_every_file_valid(photo, tmp_path):
 
 
 def test_the_total_loss_is_logged_only_beside_two_terms_or_more():
-    from nsp.painter.callbacks import TensorBoard
+    from nsp.painting.callbacks import TensorBoard
 
     class Writer:
         def __init__(self):
@@ -90,7 +90,8 @@ def test_the_total_loss_is_logged_only_beside_two_terms_or_more():
         def add_scalar(self, tag, value, step):
             self.scalars.append(tag)
 
-        def _get_file_writer(self):  # where TensorBoard's callback adds its pictures
+        @property
+        def file_writer(self):  # where TensorBoard's callback adds its pictures
             return self
 
         def add_summary(self, summary, step):
@@ -118,7 +119,7 @@ def test_animation_frames_add_the_same_strokes_each_or_one_a_stroke():
 
 
 def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeypatch):
-    from nsp.painter.callbacks import ProgressBar
+    from nsp.painting.callbacks import ProgressBar
 
     levels, stopped = [], []
 
@@ -141,7 +142,7 @@ def test_an_interrupted_painting_keeps_what_was_painted(photo, tmp_path, monkeyp
 
 
 def test_a_painting_interrupted_while_its_files_are_written_keeps_its_strokes_and_picture(photo, tmp_path, monkeypatch):
-    from nsp.painter import run
+    from nsp.painting import run
 
     info = run.log.info
 
@@ -294,8 +295,7 @@ def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_str
 
 
 def test_the_command_ends_at_once_with_its_files_and_its_log_complete(tmp_path):
-    """``python -m nsp.paint`` ends without Python's tear-down (nsp.cli.program): what it wrote is
-    all there, flushed, and its status is the work's."""
+    """``python -m nsp.paint`` ends with what it wrote all there, flushed, and its status the work's."""
     result = run(*TINY[:4], "progress=false", f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     last = result.stdout.strip().splitlines()[-1]

@@ -21,7 +21,7 @@ from nsp.painter.painter import Callback, Painter
 from nsp.painter.palette import Palette
 from nsp.painter.placement import Forms, largest_errors, place_strokes
 from nsp.painter.renderer import AnalyticRenderer, NeuralRenderer
-from nsp.painter.schema import ScheduleConfig
+from nsp.painter.settings import ScheduleConfig
 from nsp.painter.structure import orientation, smooth, structure_tensor
 
 pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too

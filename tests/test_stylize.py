@@ -16,7 +16,7 @@ from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 from omegaconf import OmegaConf
 
-import nsp.painter.schema  # noqa: F401  (registers ``paint_schema``)
+import nsp.painting.schema  # noqa: F401  (registers ``paint_schema``)
 from nsp.brushes import get_brush
 from nsp.engine import paint_canvas
 from nsp.errors import BadInput
@@ -24,7 +24,7 @@ from nsp.experiments.style import meets_targets
 from nsp.painter.losses import PaintLoss
 from nsp.painter.painter import Painter
 from nsp.painter.renderer import AnalyticRenderer
-from nsp.painter.schema import LossConfig
+from nsp.painter.settings import LossConfig
 from nsp.painter.stylize import canvas_color, stylize
 from nsp.style import Recoloring, StyleLoss
 from nsp.style.measures import coherence, color_distance, luminance_ssim, texture_distance

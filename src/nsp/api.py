@@ -30,7 +30,7 @@ from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 from PIL import Image
 
-from nsp.cli import REFUSED_WRITES, did_you_mean, refused_write
+from nsp.cli import REFUSED_WRITES, did_you_mean, refused_write, use_threads
 from nsp.config import CONF
 from nsp.engine import paint_canvas
 from nsp.engine.memory import check_render, check_side
@@ -57,9 +57,8 @@ class Painting:
     metrics: dict
 
     def render(self, size: int = 1024) -> np.ndarray:
-        """The painting drawn by the vector engine, long side ``size`` (an integer from 16 pixels):
-        (H, W, 3) uint8. A size past the memory there is raises
-        :class:`~nsp.engine.memory.MemoryLimit` (a :class:`BadInput`) naming the largest that fits."""
+        """The painting drawn by the vector engine, long side ``size`` (≥ 16 pixels): (H, W, 3) uint8.
+        A size past the memory there is raises :class:`BadInput` naming the largest that fits."""
         height, width = self.strokes.size(check_side(size))
         brush, strokes = self.strokes.brush, self.strokes.strokes
         check_render(brush, strokes, height, width)
@@ -67,12 +66,9 @@ class Painting:
             return to_uint8(paint_canvas(brush, strokes, height, width, self.strokes.background))
 
     def save(self, folder: str | Path, *, overwrite: bool = False) -> Path:
-        """Copy the painting's files into ``folder`` (made if absent; ``strokes.json`` written from
-        :attr:`strokes` where its own folder lacks one); returns it. Each file is
-        written beside its place and renamed into it: a file there is the old one or the new one,
-        whole. A folder holding another painting's files is refused (:class:`BadInput`) unless
-        ``overwrite``: then it ends up holding this painting's files alone. A write the disk
-        refuses (full) raises :class:`RunFailed`."""
+        """Copy the painting's files into ``folder`` (made if absent), each whole; returns it. A folder
+        holding another painting's files is refused (:class:`BadInput`) unless ``overwrite``: then it
+        ends up holding this painting's files alone. A write the disk refuses raises :class:`RunFailed`."""
         folder = Path(folder)
         if folder.is_dir() and folder.resolve() == self.folder.resolve():
             return folder  # its own files
@@ -112,15 +108,14 @@ def paint(image: Any, *, out: str | Path | None = None, overwrite: bool = False,
     ``out`` (default: a new temporary folder). Ctrl-C returns what was painted so far (raised
     where nothing was yet).
 
-    ``image``: a path or built-in photo's name, a PIL image, or a numpy array or torch tensor shaped
-    (H, W), (H, W, C), (C, H, W) or (1, C, H, W), C = 1 to 4 (grey, grey + alpha, RGB, RGBA), its
-    values read by dtype: uint8 0–255, uint16 0–65535, other integers 0–255, bool, floats 0–1
-    (:func:`nsp.images.from_array`). A folder ``out`` holding another painting's files is refused
-    unless ``overwrite``; then the files this painting lacks (its style.png) go when it is done.
-    A bad value raises :class:`BadInput` (leaving no folder made for it), a write the disk
-    refuses (full) :class:`RunFailed` naming the files kept, each in one line.
+    ``image``: a path or built-in photo's name, a PIL image, or a numpy array or torch tensor
+    (:func:`nsp.images.from_array` reads its layout and values). A folder ``out`` holding another
+    painting's files is refused unless ``overwrite``; then the files this painting lacks go when it
+    is done. A bad value raises :class:`BadInput` (leaving no folder made for it), a write the disk
+    refuses :class:`RunFailed` naming the files kept.
     """
-    from nsp.painter.run import paint as run
+    from nsp.painting.run import paint as run
+    from nsp.painting.schema import paint_settings
 
     if out is not None:
         _free(Path(out), "out", overwrite)
@@ -133,7 +128,8 @@ def paint(image: Any, *, out: str | Path | None = None, overwrite: bool = False,
         return (folder / name).is_file() and _identity(folder / name) != before.get(name)
 
     try:
-        metrics = run(cfg, photo, brush_named="brush" in options)
+        use_threads(cfg.threads)
+        metrics = run(paint_settings(cfg), photo, brush_named="brush" in options)
     except KeyboardInterrupt:
         if not written("strokes.json"):  # stopped before anything was painted: the folder as it was
             raise
@@ -153,7 +149,7 @@ def paint(image: Any, *, out: str | Path | None = None, overwrite: bool = False,
 
 
 def load(path: str | Path, metrics: dict | None = None) -> Painting:
-    """A painting from its ``strokes.json`` (an nsp stroke file), with the ``metrics.json`` beside it."""
+    """A painting from its ``strokes.json``, with the ``metrics.json`` beside it."""
     path = Path(path)
     if metrics is None:
         beside = path.parent / "metrics.json"
@@ -171,6 +167,7 @@ def train(*, out: str | Path | None = None, **options: Any) -> dict:
     register_configs()
     cfg = _config("train", options, out)
     try:
+        use_threads(cfg.threads)
         return run(cfg)
     except BadInput:
         if out is None:
@@ -179,16 +176,20 @@ def train(*, out: str | Path | None = None, **options: Any) -> dict:
 
 
 def _config(command: str, options: dict[str, Any], out: str | Path | None) -> DictConfig:
-    """The command's config as its command line would compose it, with ``options``: a config group's
-    option by name (an override), any other key merged on its schema (so it is typed and checked)."""
+    """The command's config as its command line would compose it: a config group's option in
+    ``options`` is an override, any other key is merged on its schema (so it is typed and checked)."""
     if command == "paint":
-        import nsp.painter.schema  # noqa: F401  (registers paint_schema)
+        import nsp.painting.schema  # noqa: F401  (registers paint_schema)
     groups = {p.name for p in (CONF / command).iterdir() if p.is_dir() and p.name != "hydra"} | {"brush"}
     choices = [f"{key}={value}" for key, value in options.items() if key in groups and isinstance(value, str)]
     values: dict = {}
     for key, value in options.items():
-        if not (key in groups and isinstance(value, str)):
-            _nest(values, key, value)
+        if not (key in groups and isinstance(value, str)):  # schedule.polish=1 -> {"schedule": {"polish": 1}}
+            *parents, last = key.split(".")
+            tree = values
+            for part in parents:
+                tree = tree.setdefault(part, {})
+            tree[last] = value
     try:
         with initialize_config_dir(str(CONF / command), version_base="1.3"):
             cfg = compose(command, overrides=choices, return_hydra_config=True)
@@ -206,8 +207,7 @@ def _config(command: str, options: dict[str, Any], out: str | Path | None) -> Di
 
 
 def _free(folder: Path, key: str, overwrite: bool) -> None:
-    """Refuse (:class:`BadInput`, naming ``key``) a ``folder`` that is a file, or that holds a
-    painting's files, unless ``overwrite``."""
+    """Refuse (:class:`BadInput`, naming ``key``) a file, or unless ``overwrite`` a folder holding a painting."""
     if folder.exists() and not folder.is_dir():
         raise BadInput(f"{key}={folder} is a file; expected a folder for the painting's files")
     held = [name for name in FILES if (folder / name).exists()]
@@ -228,17 +228,8 @@ def _unmade(folder: Path) -> None:
         shutil.rmtree(folder, ignore_errors=True)
 
 
-def _nest(tree: dict, key: str, value: Any) -> None:
-    """``tree`` with ``value`` at the dotted ``key`` (``schedule.polish`` -> {"schedule": {"polish": …}})."""
-    *parents, last = key.split(".")
-    for part in parents:
-        tree = tree.setdefault(part, {})
-    tree[last] = value
-
-
 def _photo(image: Any) -> torch.Tensor:
-    """A PIL image, or a numpy array or torch tensor (:func:`nsp.images.from_array`), as (3, H, W)
-    float in [0, 1]; anything else is refused naming what is accepted."""
+    """A PIL image, numpy array or torch tensor as (3, H, W) float in [0, 1]; anything else is refused."""
     if isinstance(image, Image.Image):
         return from_pil(image)
     if isinstance(image, (np.ndarray, torch.Tensor)) or hasattr(image, "__array__"):

@@ -1,25 +1,21 @@
 """What the commands add to Hydra and Lightning: one-line errors and exit codes, a dir per run,
 sweeps that outlive a bad job and resume, and Ctrl-C and SIGTERM that keep what a run had.
 
-Hydra composes, checks and sweeps each command's config, and prints its ``--help`` (the template in
-``conf/<command>/hydra/help/``); :func:`command` turns Hydra's several-line errors into one line.
+Hydra composes, checks and sweeps each command's config and prints its ``--help``; :func:`command`
+turns its several-line errors into one line. A single run that cannot start exits with one line,
+``error: …``, and :data:`BAD_INPUT`. In a multirun (``-m``) the job instead records why it failed in
+its own dir (``metrics.json`` with ``"status": "failed"`` and the ``"error"``; a crash's traceback in
+``traceback.txt``) so the launcher goes on; :class:`Sweeps` then ends the sweep with one line naming
+the failed jobs and :data:`FAILED`. Ctrl-C and SIGTERM (``timeout``, Slurm, ``docker stop``) both
+interrupt: the work keeps what it had, and the command exits with :data:`INTERRUPTED`.
 
-A single run that cannot start exits with one line, ``error: …``, and :data:`BAD_INPUT`. In a
-multirun (``-m``) the same job instead records why it failed in its own dir (``metrics.json`` with
-``"status": "failed"`` and the one-line ``"error"``; a crash's traceback in ``traceback.txt``) and
-returns, so the launcher goes on with the next job; :class:`Sweeps` then ends the sweep with one
-line naming the failed jobs and :data:`FAILED`. ``python -m nsp.report`` lists them as failed rows.
-
-Ctrl-C and SIGTERM (``timeout``, Slurm, ``docker stop``) both interrupt: the work keeps what it had
-and the command exits with :data:`INTERRUPTED`. :class:`RunDirs` keeps every run in a dir of its own.
-
-``--help`` and a command's first line come before anything imports torch (seconds): the configs'
-schemas, this module and the entry modules import only Hydra at the top.
+This module imports only Hydra at the top, so ``--help`` and a command's first line come before torch loads.
 """
 from __future__ import annotations
 
 import difflib
 import errno
+import gc
 import json
 import logging
 import os
@@ -34,7 +30,6 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, NoReturn
 
 import hydra
-from hydra._internal.hydra import Hydra
 from hydra.core.global_hydra import GlobalHydra
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.override_parser.overrides_parser import OverridesParser
@@ -55,17 +50,23 @@ FAILED = 1  # some work failed (a crash, or jobs of a sweep)
 BAD_INPUT = 2  # nothing started: a value was wrong
 INTERRUPTED = 130  # Ctrl-C or SIGTERM; shells report SIGINT as 130
 
+CLAIM = ".nsp-run"  # in a dir named by hydra.run.dir: locked by the run that took it (_take), its process id
+STOPPED = ".interrupted"  # in a sweep's dir: Ctrl-C or SIGTERM reached the sweep; no further job starts
+# What a disk may refuse a write with: full, over quota, read-only, not ours, failing, file too large.
+REFUSED_WRITES = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EIO, errno.EFBIG}
+# What an error says when the machine's memory or its limit on processes and threads ran out.
+LIMITS = ("can't allocate memory", "cannot allocate memory", "failed to map segment", "out of memory",
+          "can't start new thread", "resource temporarily unavailable")
+RANKS = ("RANK", "LOCAL_RANK", "NODE_RANK", "SLURM_PROCID")  # torchrun's, Lightning's, Slurm's (each task)
+JOBLIB = "hydra_plugins.hydra_joblib_launcher._core"  # the logger of the joblib launcher plugin
+
+_sweep_process: int | None = None  # the process of the sweep's command, once it has started its workers' launcher
+_working = False  # a job's work runs in this process
+_CLAIMS: list[int] = []  # the claim files this process holds locked, open for the rest of its life
+
 
 def in_sweep() -> bool:
     return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
-
-
-CLAIM = ".nsp-run"  # in a dir named by hydra.run.dir: locked by the run that took it (_take), its process id
-STOPPED = ".interrupted"  # in a sweep's dir: Ctrl-C or SIGTERM reached the sweep; no further job starts
-
-
-# What a disk may refuse a write with: full, over quota, read-only, not ours, failing, file too large.
-REFUSED_WRITES = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EIO, errno.EFBIG}
 
 
 def record(out: Path, status: str, error: str) -> None:
@@ -88,7 +89,7 @@ def refused_write(error: OSError, out: Path) -> str:
 
 
 def _kept(out: Path) -> str:
-    """The files a run's dir ``out`` holds, for a line: ``strokes.json, paint.log`` or ``no file``."""
+    """The files in a run's dir ``out``, for a line: ``strokes.json, paint.log`` or ``no file``."""
     kept = sorted(p.name for p in out.iterdir() if p.is_file() and not p.name.startswith(".")) if out.is_dir() else []
     return ", ".join(kept) or "no file"
 
@@ -101,13 +102,10 @@ def kept(cfg: DictConfig) -> bool:
 
 def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
     """``work(cfg)``'s result; on an error, one line and an exit in a single run, a record in the
-    job's dir in a sweep (returns None).
-
-    A :class:`~nsp.errors.BadInput` is a wrong value whose message is the whole story; any other
-    error in a sweep also becomes a record, with its traceback in ``traceback.txt``. An interrupted job
-    of a sweep (its work has kept what it had) is recorded as such, and the jobs after it do not start.
-    A sweep run again into its own dir (:class:`RunDirs`) keeps the jobs that completed (their recorded
-    metrics are the result) and resumes interrupted training from the job's ``last.ckpt``.
+    job's dir in a sweep (returns None; a crash's traceback in ``traceback.txt``). An interrupted job
+    of a sweep is recorded as such, and the jobs after it do not start. A sweep run again into its
+    own dir (:class:`RunDirs`) keeps the jobs that completed (their recorded metrics are the result)
+    and resumes interrupted training from the job's ``last.ckpt``. A side-by-side job gets one thread.
     """
     out = Path(cfg.output_dir)
     stop = Path(HydraConfig.get().sweep.dir) / STOPPED if in_sweep() else None
@@ -121,6 +119,7 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
         cfg.ckpt_path = str(last)  # an interrupted training job of a sweep run again: on from where it stopped
     try:
         with _heeding(stop):
+            use_threads(1 if cfg.get("threads") is None and side_by_side() else cfg.get("threads"))
             return work(cfg)
     except KeyboardInterrupt:
         if stop is None:
@@ -147,6 +146,17 @@ def run_job(cfg: DictConfig, work: Callable[[DictConfig], Any]) -> Any:
     return None
 
 
+def use_threads(threads: int | None) -> None:
+    """Set torch's CPU threads for this process as its work starts; None keeps torch's default
+    (every core, ``OMP_NUM_THREADS`` honoured)."""
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise BadInput(f"threads={threads}: expected a positive number of threads, or null for torch's default")
+    if threads is not None:
+        import torch
+
+        torch.set_num_threads(threads)
+
+
 def failure(error: Exception, out: Path) -> str | None:
     """The one line for an error a run ends with, ``out`` its dir: a value refused, a run that could
     not go on, a write the disk refused, a limit of the machine reached; None for a crash (a bug)."""
@@ -154,22 +164,15 @@ def failure(error: Exception, out: Path) -> str | None:
         return _one_line(error)
     if isinstance(error, OSError) and error.errno in REFUSED_WRITES:
         return refused_write(error, out)
-    text = str(error).lower()
-    if isinstance(error, MemoryError) or any(limit in text for limit in LIMITS):
+    if isinstance(error, MemoryError) or any(limit in str(error).lower() for limit in LIMITS):
         return (f"a limit of this machine stopped the run ({(str(error).strip() or type(error).__name__).splitlines()[0]}); "
                 f"it kept {_kept(out)}. Free memory or raise the limit (ulimit -v, ulimit -u), or ask for less "
                 "(strokes=, render_size=)")
     return None
 
 
-# What an error says when the machine's memory or its limit on processes and threads ran out.
-LIMITS = ("can't allocate memory", "cannot allocate memory", "failed to map segment", "out of memory",
-          "can't start new thread", "resource temporarily unavailable")
-
-
 def _log_to_file(out: Path, message: str) -> None:
-    """``message`` as an error, into the run's own log file in ``out`` alone (``paint.log``,
-    ``train.log``): the console's line is :func:`fail`'s."""
+    """``message`` as an error into the run's own log file in ``out`` alone (the console's line is :func:`fail`'s)."""
     record = logging.getLogger(__name__).makeRecord(__name__, logging.ERROR, __file__, 0, message, None, None)
     for handler in logging.getLogger().handlers:
         if isinstance(handler, logging.FileHandler) and Path(handler.baseFilename).parent == out.absolute():
@@ -177,36 +180,32 @@ def _log_to_file(out: Path, message: str) -> None:
 
 
 class Sweeps(Callback):
-    """How a multirun ends: with one line and :data:`FAILED` when jobs recorded failures, with one
-    line and :data:`INTERRUPTED` after Ctrl-C or SIGTERM; and, as it starts, a line saying how its
-    jobs run (:func:`launcher`).
+    """How a multirun starts (a line saying how its jobs run) and ends: one line and :data:`FAILED`
+    when jobs recorded failures, :data:`INTERRUPTED` after Ctrl-C or SIGTERM.
 
-    Under the basic launcher the jobs run one at a time in this process, and a signal interrupts the
-    job itself. Under joblib and ``submitit_local`` they run in worker processes, and this process
-    waits for them instead of killing them mid-save: Ctrl-C reaches each worker from the terminal,
-    and SIGTERM, sent to this process alone, is written into the sweep's :data:`STOPPED` file, which
-    each working job watches and takes as its Ctrl-C (:func:`run_job`). No further job starts. Under
-    ``submitit_local`` this process ignores Ctrl-C from the launch on, so that submitit's process
-    between it and each job (which would kill its job a second after a Ctrl-C) inherits that.
+    Under the basic launcher a signal interrupts the job itself, run in this process. Under joblib
+    and ``submitit_local`` this process waits for its workers instead of killing them mid-save:
+    Ctrl-C reaches each from the terminal, and SIGTERM, sent to this process alone, is written into
+    the sweep's :data:`STOPPED` file, which each working job takes as its Ctrl-C (:func:`_heeding`).
+    Under ``submitit_local`` this process ignores Ctrl-C, so that submitit's process between it and
+    each job (which would kill its job a second after a Ctrl-C) inherits that.
     """
 
     def on_multirun_start(self, config: DictConfig, **kwargs: Any) -> None:
         global _sweep_process
-        how = launcher(config.hydra.launcher)
-        if how == "basic":
-            print("the jobs run one at a time, in this process (hydra/launcher=joblib: side by side)", flush=True)
-            return  # Ctrl-C and SIGTERM interrupt the job itself
-        if how == "submitit_slurm":
-            print(f"the jobs run as Slurm jobs, through submitit; this command waits for them (their output: "
-                  f"{config.hydra.launcher.submitit_folder.replace('%j', '<job id>')})", flush=True)
-            return
+        how = launcher(config.hydra)
+        folder = str(config.hydra.launcher.get("submitit_folder", "")).replace("%j", "<job id>")
+        said = {"basic": "the jobs run one at a time, in this process (hydra/launcher=joblib: side by side)",
+                "submitit_slurm": "the jobs run as Slurm jobs, through submitit; this command waits for them "
+                                  f"(their output: {folder})",
+                "submitit_local": "the jobs run side by side, each a process of its own (submitit's); "
+                                  f"their output: {folder}"}
         if how == "joblib":
             logging.getLogger(JOBLIB).addFilter(_how_jobs_run)  # its own line says how many side by side
-        elif how == "submitit_local":
-            print(f"the jobs run side by side, each a process of its own (submitit's); their output: "
-                  f"{config.hydra.launcher.submitit_folder.replace('%j', '<job id>')}", flush=True)
         else:
-            print(f"the jobs run as {config.hydra.launcher.get('_target_')} runs them", flush=True)
+            print(said.get(how, f"the jobs run as {config.hydra.launcher.get('_target_')} runs them"), flush=True)
+        if how in ("basic", "submitit_slurm"):
+            return  # basic: Ctrl-C and SIGTERM interrupt the job itself
         stop, _sweep_process = Path(config.hydra.sweep.dir) / STOPPED, os.getpid()
 
         def wait(signum: int, frame: Any) -> None:
@@ -233,31 +232,17 @@ class Sweeps(Callback):
             sys.exit(FAILED)
 
 
-JOBLIB = "hydra_plugins.hydra_joblib_launcher._core"  # the logger of the joblib launcher plugin
-
-
 def _how_jobs_run(record: logging.LogRecord) -> bool:
-    """The joblib launcher's first line, said plainly: how many jobs side by side (its own line lists
-    its 13 settings)."""
+    """The joblib launcher's first line (its 13 settings), said plainly: how many jobs side by side."""
     if match := re.match(r"Joblib\.Parallel\(n_jobs=(-?\d+).* is launching (\d+) jobs", record.getMessage()):
         at_once = "one process per core" if match[1] == "-1" else f"{match[1]} processes"
         record.msg, record.args = f"launching {counted(match[2], 'job')} side by side, {at_once}", ()
     return True
 
 
-LAUNCHERS = {  # Hydra's launchers, by their class, as hydra/launcher= names them
-    "hydra._internal.core_plugins.basic_launcher.BasicLauncher": "basic",
-    "hydra_plugins.hydra_joblib_launcher.joblib_launcher.JoblibLauncher": "joblib",
-    "hydra_plugins.hydra_submitit_launcher.submitit_launcher.LocalLauncher": "submitit_local",
-    "hydra_plugins.hydra_submitit_launcher.submitit_launcher.SlurmLauncher": "submitit_slurm",
-}
-
-
-def launcher(node: DictConfig) -> str:
-    """The name of a sweep's launcher (``basic``, ``joblib``, ``submitit_local``, ``submitit_slurm``),
-    from its config node (``hydra.launcher``); another launcher's class."""
-    target = str(node.get("_target_", ""))
-    return LAUNCHERS.get(target, target)
+def launcher(hydra: DictConfig) -> str:
+    """The launcher a sweep's Hydra node chose, as ``hydra/launcher=`` names it (``basic``, ``joblib``, …)."""
+    return hydra.runtime.choices.get("hydra/launcher", "basic")
 
 
 def side_by_side() -> bool:
@@ -265,34 +250,23 @@ def side_by_side() -> bool:
     processes (``n_jobs`` other than 1), or each job a process of its own (``submitit_local``)."""
     if not in_sweep():
         return False
-    node = HydraConfig.get().launcher
-    return launcher(node) == "submitit_local" or (launcher(node) == "joblib" and node.get("n_jobs", 1) != 1)
-
-
-RANKS = ("RANK", "LOCAL_RANK", "NODE_RANK", "SLURM_PROCID")  # torchrun's, Lightning's, Slurm's (each task)
+    how = launcher(HydraConfig.get())
+    return how == "submitit_local" or (how == "joblib" and HydraConfig.get().launcher.get("n_jobs", 1) != 1)
 
 
 def first_rank() -> bool:
-    """Whether this process is the first (rank 0) of a distributed run, or no such run's: Lightning
-    starts the other processes of a node by running the command again with ``LOCAL_RANK`` set, each
-    node of a multi-node run sets ``NODE_RANK``, and Slurm starts every task of a job itself
-    (``SLURM_PROCID``). The others write no run's files and say nothing the first does not."""
+    """Whether this process is rank 0 of a distributed run (Lightning's ``LOCAL_RANK``, ``NODE_RANK``,
+    Slurm's ``SLURM_PROCID``), or of no such run. The others write no run's files and say nothing."""
     return all(os.environ.get(name, "0").strip() in ("", "0") for name in RANKS)
-
-
-_sweep_process: int | None = None  # the process of the sweep's command, once it has started its workers' launcher
-_working = False  # a job's work runs in this process
 
 
 @contextmanager
 def _heeding(stop: Path | None) -> Iterator[None]:
-    """While a job of a sweep works: a SIGTERM its command was sent (:class:`Sweeps`) reaches the job
-    as Ctrl-C. In the command's own process its handler interrupts the job; in a worker process (a
-    joblib or submitit one) a thread reads the sweep's :data:`STOPPED` file every 0.2 s and sends this
-    process's main thread SIGINT for each SIGTERM written there (training stops at the end of its
-    step on the first, at once on a second, as with Ctrl-C)."""
+    """While a job of a sweep works, a SIGTERM its command was sent (:class:`Sweeps`) reaches it as
+    Ctrl-C: in the command's own process through its handler; in a worker process through a thread
+    that reads the :data:`STOPPED` file every 0.2 s and sends the main thread SIGINT per SIGTERM."""
     global _working
-    if stop is None or launcher(HydraConfig.get().launcher) in ("basic", "submitit_slurm") or not hasattr(signal, "pthread_kill"):
+    if stop is None or launcher(HydraConfig.get()) in ("basic", "submitit_slurm") or not hasattr(signal, "pthread_kill"):
         yield
         return
     if os.getpid() == _sweep_process:
@@ -324,22 +298,18 @@ def _heeding(stop: Path | None) -> Iterator[None]:
 
 
 def _status(path: Path) -> str | None:
-    """A job's status as its ``metrics.json`` says (``completed`` where it names none); None where
-    the job wrote none or it cannot be read."""
+    """A job's status as its ``metrics.json`` says (``completed`` where it names none); None where unreadable."""
     metrics = job_metrics(path.parent)
     return metrics.get("status", "completed") if metrics else None
 
 
 class RunDirs(Callback):
-    """One run per dir: a default (time-stamped) dir already taken by a run started in the same
-    second gets a fresh sibling (``…_2``); a dir the user named that already holds a run's files
-    (more than the config and log of a run that never started) is refused with one line and
-    :data:`BAD_INPUT`, before anything is written. A training run resuming from a
-    checkpoint inside its own dir (``ckpt_path=DIR/checkpoints/last.ckpt``) continues in place, and a
-    sweep run again with the same command line into its own ``hydra.sweep.dir`` resumes there
-    (:func:`run_job`). A named dir is claimed for the process (:func:`_take`) while it runs. The other
-    processes of a distributed run (:func:`first_rank`: Lightning's DDP, the tasks of a Slurm job) join
-    the dir of the first, which claims it: none is refused, nor given a dir of its own.
+    """One run per dir. A default (time-stamped) dir taken by a run of the same second gets a fresh
+    sibling (``…_2``); a named dir that holds a run's files is refused with one line and
+    :data:`BAD_INPUT` before anything is written, except a training run resuming from a checkpoint
+    inside it, and a sweep run again with the same command line (it resumes: :func:`run_job`). A
+    named dir is claimed while it runs (:func:`_take`). The other processes of a distributed run
+    (:func:`first_rank`) join the first one's dir.
     """
 
     def on_run_start(self, config: DictConfig, **kwargs: Any) -> None:
@@ -364,27 +334,24 @@ class RunDirs(Callback):
             else:
                 RunDirs._fresh(config, path, key)
         except OSError as error:  # a parent that is a file, a read-only or full disk
-            print(f"error: {key}={path}: cannot make a run dir there ({error.strerror or error}); "
-                  "name a dir on a disk you can write", file=sys.stderr)
-            sys.exit(BAD_INPUT)
+            fail(f"{key}={path}: cannot make a run dir there ({error.strerror or error}); "
+                 "name a dir on a disk you can write")
 
     @staticmethod
     def _named(config: DictConfig, path: Path, key: str) -> None:
         held = path.is_dir() and any(not p.name.startswith(".") and p.suffix != ".log" for p in path.iterdir())  # .hydra, claims
         sweep = key == "hydra.sweep.dir"
-        if held and sweep and (order := _other_order(path, config)):
-            print(f"error: {key}={path} holds this sweep with its swept keys in another order ({order}), which numbers "
-                  "its jobs otherwise; give them in that order to resume it", file=sys.stderr)
-            sys.exit(BAD_INPUT)
-        if held and not (sweep and _same_sweep(path, config)):
-            print(f"error: {key}={path} already holds {'another sweep' if sweep else 'a run'}; name a new dir, or remove "
-                  "that one first" + (" (the same command again resumes its own sweep)" if sweep else ""), file=sys.stderr)
-            sys.exit(BAD_INPUT)
+        before = _same_overrides(path, config) if held and sweep else None
+        if before is not None and before != _swept(config.hydra.overrides.task):
+            order = ", ".join(override.split("=", 1)[0] for override in before)
+            fail(f"{key}={path} holds this sweep with its swept keys in another order ({order}), which numbers "
+                 "its jobs otherwise; give them in that order to resume it")
+        if held and before is None:
+            fail(f"{key}={path} already holds {'another sweep' if sweep else 'a run'}; name a new dir, or remove "
+                 "that one first" + (" (the same command again resumes its own sweep)" if sweep else ""))
         path.mkdir(parents=True, exist_ok=True)
         if not _take(path):
-            print(f"error: {key}={path} is taken by another {'sweep' if sweep else 'run'} that is still going; "
-                  "name a new dir", file=sys.stderr)
-            sys.exit(BAD_INPUT)
+            fail(f"{key}={path} is taken by another {'sweep' if sweep else 'run'} that is still going; name a new dir")
         if held:  # this sweep again: run_job keeps its completed jobs and resumes the others
             (path / STOPPED).unlink(missing_ok=True)
             kept = sum(_status(job / "metrics.json") == "completed" for job in path.iterdir() if (job / ".hydra").is_dir())
@@ -405,17 +372,18 @@ class RunDirs(Callback):
             OmegaConf.update(config, key, str(fresh))
 
 
-def _planned(path: Path) -> list[str] | None:
-    """The overrides of the sweep in ``path`` (its ``multirun.yaml``); None where there is none."""
+def _same_overrides(path: Path, config: DictConfig) -> list[str] | None:
+    """Where ``path`` holds a sweep (its ``multirun.yaml``) of ``config``'s overrides in any order:
+    its overrides that sweep, in its order (which numbers the jobs, and so their dirs); else None."""
     try:
-        return list(OmegaConf.load(path / "multirun.yaml").hydra.overrides.task)
+        before = list(OmegaConf.load(path / "multirun.yaml").hydra.overrides.task)
     except (OSError, yaml.YAMLError, OmegaConfBaseException, AttributeError):
         return None
+    return _swept(before) if sorted(before) == sorted(config.hydra.overrides.task) else None
 
 
 def _swept(overrides: Iterable[str]) -> list[str]:
-    """The overrides among ``overrides`` that sweep (``seed=0,1``, ``range(3)``): in Hydra's order of
-    them it numbers the jobs. One it cannot read counts as one."""
+    """The overrides that sweep (``seed=0,1``, ``range(3)``), in their order; one Hydra cannot read counts."""
     parser, swept = OverridesParser.create(), []
     for override in overrides:
         with suppress(OverrideParseException):
@@ -425,32 +393,10 @@ def _swept(overrides: Iterable[str]) -> list[str]:
     return swept
 
 
-def _same_sweep(path: Path, config: DictConfig) -> bool:
-    """Whether ``path`` holds a sweep of the same command line as ``config``'s: the same overrides,
-    in any order, those that sweep in the same order (which numbers the jobs, and so their dirs)."""
-    before, now = _planned(path), list(config.hydra.overrides.task)
-    return before is not None and sorted(before) == sorted(now) and _swept(before) == _swept(now)
-
-
-def _other_order(path: Path, config: DictConfig) -> str | None:
-    """Where ``path`` holds the sweep of ``config``'s overrides but with those that sweep in another
-    order: their keys in the order that sweep gave them, for the line that says so."""
-    before, now = _planned(path), list(config.hydra.overrides.task)
-    if before is None or sorted(before) != sorted(now) or _swept(before) == _swept(now):
-        return None
-    return ", ".join(override.split("=", 1)[0] for override in _swept(before))
-
-
-_CLAIMS: list[int] = []  # the claim files this process holds locked, open for the rest of its life
-
-
 def _take(path: Path) -> bool:
-    """Claim a dir the user named for this process: an exclusive ``flock`` on its :data:`CLAIM` file,
-    held for the rest of the process's life and released by the kernel when it ends, however it ends.
-    So a claim is free once its process has gone, whatever process ids say (a container's pid 1, a
-    pid since reused, another pid namespace); of two runs started together, one gets the lock. The
-    file names its holder's pid, for people to read, and stays: the lock is on that file. Where the
-    filesystem cannot lock (or the system has no ``fcntl``), the dir is not claimed."""
+    """Claim a dir the user named for this process: an exclusive ``flock`` on its :data:`CLAIM` file
+    (which names the pid, for people), held until the process ends however it ends, so no pid is
+    trusted; of two runs started together one gets it. Where the filesystem cannot lock, no claim."""
     try:
         import fcntl
     except ImportError:
@@ -507,9 +453,8 @@ OmegaConf.register_new_resolver("options", options, replace=True)
 
 
 class Console(logging.StreamHandler):
-    """The on-screen half of a run's log (Hydra's ``job_logging``; ``<command>.log`` in the run dir
-    is the other): each message on ``sys.stdout`` as it is at that moment, which a progress bar
-    redirects to keep its place below."""
+    """The on-screen half of a run's log (``<command>.log`` is the other): each message on
+    ``sys.stdout`` as it is at that moment, which a progress bar redirects to keep its place below."""
 
     stream = property(lambda self: sys.stdout, lambda self, stream: None)
 
@@ -517,21 +462,20 @@ class Console(logging.StreamHandler):
 def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], Any], text: Iterable[str] = ()) -> None:
     """Run ``python -m nsp.<name>``: its Hydra app ``main`` on the config dir ``conf/<name>``.
 
-    ``-m`` may stand anywhere in the command line, and ``text`` keys' values are quoted where Hydra
-    needs it. ``schema()`` registers the command's structured config (it imports no torch, so
-    ``--help`` is quick). A value Hydra rejects while composing ends with one line and
-    :data:`BAD_INPUT`. SIGTERM is treated as Ctrl-C, and an interrupt the work has already handled
-    (files kept, message printed) ends with :data:`INTERRUPTED`, not a traceback.
+    ``-m`` may stand anywhere in the line; ``text`` keys' values are quoted where Hydra needs it;
+    ``schema()`` registers the command's structured config (no torch: ``--help`` stays quick). A
+    value Hydra rejects while composing ends with one line and :data:`BAD_INPUT`. SIGTERM is Ctrl-C,
+    and an interrupt the work has handled ends with :data:`INTERRUPTED`, not a traceback.
     """
     argv = sys.argv[1:]
     sweep = [arg for arg in argv if arg in ("-m", "--multirun")]  # anywhere in the line, as users type it
-    sys.argv[1:] = sweep + quote_text([arg for arg in argv if arg not in sweep], text, sweeps(argv))
+    multirun = bool(sweep) or any(arg.lstrip("+") == "hydra.mode=MULTIRUN" for arg in argv)
+    sys.argv[1:] = sweep + quote_text([arg for arg in argv if arg not in sweep], text, multirun)
     keys = schema()
     signal.signal(signal.SIGTERM, interrupt)
     os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises its errors here instead of printing them over several lines
     try:
-        with _mode_from_the_line(sys.argv[1:]):
-            hydra.main(config_path=str(CONF / name), config_name=name, version_base="1.3")(main)()
+        hydra.main(config_path=str(CONF / name), config_name=name, version_base="1.3")(main)()
     except KeyboardInterrupt:
         sys.exit(INTERRUPTED)
     except OverrideParseException:
@@ -554,66 +498,33 @@ def command(name: str, main: Callable[[DictConfig], Any], schema: Callable[[], A
         fail(f"{error.strerror}: {error.filename or 'a run file'}; free space or name another dir (hydra.run.dir, hydra.sweep.dir)", FAILED)
 
 
-def sweeps(argv: list[str]) -> bool:
-    """Whether a command line asks for a sweep: ``-m`` anywhere in it, or ``hydra.mode=MULTIRUN``."""
-    return any(arg in ("-m", "--multirun") or arg.lstrip("+") == "hydra.mode=MULTIRUN" for arg in argv)
-
-
-@contextmanager
-def _mode_from_the_line(argv: list[str]) -> Iterator[None]:
-    """Run or sweep as the command line says (``-m``), without Hydra's first composition of the
-    whole config, made only to read ``hydra.mode`` (``Hydra.get_mode``: 0.07 s of a 3.5-s painting).
-    No nsp config sets that key, so only the line can; where it does, Hydra reads it as ever."""
-    if any(arg.lstrip("+~").startswith("hydra.mode=") for arg in argv):
-        yield
-        return
-    get_mode, Hydra.get_mode = Hydra.get_mode, lambda self, config_name, overrides: None  # None: -m decides
+def program(cli: Callable[[], None]) -> None:
+    """Run a command's ``cli()`` as the whole process (``python -m nsp.paint``, ``nsp-paint``). Its
+    objects are then frozen out of the garbage collector (``gc.freeze``), so Python's tear-down
+    frees them without collections that walk all of torch's (most of a second)."""
     try:
-        yield
+        cli()
     finally:
-        Hydra.get_mode = get_mode
-
-
-def program(cli: Callable[[], None]) -> NoReturn:
-    """Run a command's ``cli()`` as the whole process (``python -m nsp.paint``, ``nsp-paint``) and end
-    it with its exit status at once, its output flushed and its logs closed: what Python's own
-    tear-down would do after torch, about 0.4 s on a 2-core machine, writes nothing. A sweep ends
-    the usual way, so its launcher stops its worker processes."""
-    if sweeps(sys.argv[1:]):
-        cli()
-        sys.exit()
-    try:
-        cli()
-        code = 0
-    except SystemExit as exit:
-        code = exit.code if isinstance(exit.code, int) else 0 if exit.code is None else (print(exit.code, file=sys.stderr) or 1)
-    logging.shutdown()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
+        gc.freeze()
 
 
 def _unmade_run(out: Path) -> None:
     """A single run refused a value before its work began: its default (time-stamped) dir goes, if
     it holds nothing but what Hydra put there (``.hydra/``, the log), so nothing looks like a run. A
     dir the user named stays: it may have been theirs before."""
-    if first_rank() and not _given("hydra.run.dir") and out.is_dir() and all(p.name == ".hydra" or p.suffix == ".log" for p in out.iterdir()):
+    if not first_rank() or any(o.split("=", 1)[0].lstrip("+") == "hydra.run.dir" for o in HydraConfig.get().overrides.hydra):
+        return
+    if out.is_dir() and all(p.name == ".hydra" or p.suffix == ".log" for p in out.iterdir()):
         shutil.rmtree(out)
 
 
 def _unmade_sweep() -> None:
-    """A sweep that Hydra refused while planning its jobs (a bad value among the swept ones) leaves
-    no dir: the one :class:`RunDirs` made for it goes, if it holds nothing but its claim and the plan
-    Hydra wrote (``multirun.yaml``): no job began."""
+    """A sweep that Hydra refused while planning its jobs leaves no dir: the one :class:`RunDirs`
+    made goes, if it holds nothing but its claim and Hydra's ``multirun.yaml`` (no job began)."""
     if in_sweep():
         sweep = Path(HydraConfig.get().sweep.dir)
         if sweep.is_dir() and {p.name for p in sweep.iterdir()} <= {CLAIM, "multirun.yaml"}:
             shutil.rmtree(sweep)  # a named dir too: empty before, if it existed, so nothing of the user's is lost
-
-
-def _given(key: str) -> bool:
-    """Whether the command line set Hydra's ``key`` (e.g. ``hydra.run.dir``)."""
-    return any(o.split("=", 1)[0].lstrip("+") == key for o in HydraConfig.get().overrides.hydra)
 
 
 def _one_line(error: BaseException) -> str:
@@ -647,7 +558,7 @@ def did_you_mean(message: str, schema: Any) -> str | None:
 
 
 def fail(message: str, code: int = BAD_INPUT) -> NoReturn:
-    """The end of every command given a bad input (or, ``code`` :data:`FAILED`, of a run that could not
-    go on): the one line, ``error: …``, and the exit code."""
+    """End a command given a bad input (or, ``code`` :data:`FAILED`, a run that could not go on):
+    the one line, ``error: …``, and the exit code."""
     print(message if message.startswith("error: ") else f"error: {message}", file=sys.stderr)
     sys.exit(code)

@@ -1,10 +1,7 @@
-"""Colours: names and ``#rrggbb`` (:func:`parse_color`, :func:`hex_color`), and CIE L*a*b*
-(sRGB primaries, D65 white), divided by 100: L in [0, 1], a and b about [−1, 1].
-
-Colour mode (paper §3.5) recolours in this space and the style measures compare colours in it:
-Euclidean distances follow perceived colour differences, and L (lightness) depends on the
-luminance alone, so a map that keeps L keeps a painting's luminance structure.
-"""
+"""Colours: names and ``#rrggbb`` (:func:`parse_color`, :func:`hex_color`), and CIE L*a*b* (sRGB
+primaries, D65 white) divided by 100: L in [0, 1], a and b about [−1, 1]. Colour mode (paper §3.5)
+recolours in L*a*b* and the style measures compare colours in it: its distances follow perceived
+differences, and L depends on luminance alone, so a map that keeps L keeps a painting's luminance."""
 from __future__ import annotations
 
 import re
@@ -55,8 +52,7 @@ def rgb_to_lab(rgb: Tensor, dim: int = -1) -> Tensor:
 
 
 def lab_to_rgb(lab: Tensor, dim: int = -1) -> Tensor:
-    """L*a*b* / 100 -> sRGB, the inverse of :func:`rgb_to_lab`; colours outside the sRGB gamut come
-    back outside [0, 1] (clamp them to paint them)."""
+    """L*a*b* / 100 -> sRGB, the inverse of :func:`rgb_to_lab`; out-of-gamut colours come back outside [0, 1]."""
     lab = lab.movedim(dim, -1)
     fy = (lab[..., 0] + 0.16) / 1.16
     f = torch.stack([fy + lab[..., 1] / 5, fy, fy - lab[..., 2] / 2], -1)

@@ -33,22 +33,26 @@ class BrushConfig:
     impasto: bool = True  # oilpaint: its paint's relief lit from the upper left
 
 
-def register_brushes() -> None:
-    cs = ConfigStore.instance()
-    for name in BRUSH_NAMES:
-        cs.store(group="brush", name=name, node=BrushConfig(name=name))
+def compile_choice(value: bool | str | None, key: str) -> bool | None:
+    """A ``compile`` option (``true``, ``false`` or ``auto``) as the engine takes it: True, False, or None
+    for auto (:func:`nsp.engine.fused.choose`); :class:`BadInput` naming ``key`` for any other value."""
+    if value is None or value == "auto":
+        return None
+    if isinstance(value, bool):
+        return value
+    raise BadInput(f"{key}={value}: expected true, false or auto")
 
 
-register_brushes()
+for name in BRUSH_NAMES:
+    ConfigStore.instance().store(group="brush", name=name, node=BrushConfig(name=name))
 
 
 ANALYTIC = "analytic:"  # experiment=renderer_painting's swept renderer that is the analytic one, for the brush after it
 
 
 def trained_renderers(sweep: str) -> str:
-    """``${trained_renderers:DIR}`` (conf/paint/experiment/renderer_painting.yaml): every completed
-    job's final checkpoint (``checkpoints/last.ckpt``, the model its test PSNR scores) in the training
-    sweep ``DIR``, then ``analytic:BRUSH`` for each of their brushes, as one sweep of quoted values."""
+    """``${trained_renderers:DIR}``: every completed job's ``checkpoints/last.ckpt`` (the model its test
+    PSNR scores) in the training sweep ``DIR``, then ``analytic:BRUSH`` per brush, as quoted sweep values."""
     jobs = sorted(path.parent.parent for path in Path(sweep).glob("*/checkpoints/last.ckpt")
                   if job_metrics(path.parent.parent).get("status") == "completed")
     if not jobs:
@@ -71,23 +75,14 @@ def job_metrics(job: Path) -> dict:
 
 
 def renderer_label(renderer: str) -> str:
-    """``${renderer_label:RENDERER}``: a swept renderer as a dir name: its training job's dir name
-    (``3_dcgan_watercolor_seed0``), or ``analytic_BRUSH``; so a painting's dir says what painted it,
-    and a sweep resumed after its training sweep grew keeps each painting with its renderer."""
+    """``${renderer_label:RENDERER}``: a swept renderer as a dir name, its training job's dir's
+    (``3_dcgan_watercolor_seed0``) or ``analytic_BRUSH``, so it stays the same as its sweep grows."""
     return renderer.replace(":", "_") if renderer.startswith(ANALYTIC) else Path(renderer).parents[1].name
 
 
-def px(size: int) -> str:
-    """``${px:SIZE}``: a size as the key of a per-size table (``32px``; OmegaConf keys are text)."""
-    return f"{size}px"
-
-
-def image_name(image: str) -> str:
-    """``${image_name:IMAGE}``: a photo as part of a dir name: a built-in photo's name, a file's stem."""
-    return Path(image).stem
-
-
-OmegaConf.register_new_resolver("px", px, replace=True)
-OmegaConf.register_new_resolver("image_name", image_name, replace=True)
+# ${px:SIZE}: a size as the key of a per-size table (32px; OmegaConf keys are text)
+OmegaConf.register_new_resolver("px", lambda size: f"{size}px", replace=True)
+# ${image_name:IMAGE}: a photo as part of a dir name: a built-in photo's name, a file's stem
+OmegaConf.register_new_resolver("image_name", lambda image: Path(image).stem, replace=True)
 OmegaConf.register_new_resolver("trained_renderers", trained_renderers, replace=True)
 OmegaConf.register_new_resolver("renderer_label", renderer_label, replace=True)

@@ -1,5 +1,5 @@
-"""Files written whole (:func:`write_json`, and :func:`atomic_path` for any format): each is written beside its place and renamed into it, and what a writer that
-was killed (``kill -9``, a power cut) left is removed by the next write into that folder."""
+"""Files written whole (:func:`write_json`, :func:`atomic_path` for any format): each is written beside its
+place and renamed into it; what a killed writer left (``kill -9``, a power cut) goes with the next write there."""
 from __future__ import annotations
 
 import glob
@@ -12,13 +12,14 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+import psutil
+
 
 @contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary path beside ``path`` to write to; it becomes ``path`` only once the write has
     finished, so an interrupted write leaves the old file or none, never a truncated one. The
-    temporary names its process, so those a process that has ended left in the folder (a killed
-    painting's half-written final.png, GIF, …) are removed here."""
+    temporary names its process, so those of ended processes are removed here."""
     path = Path(path)
     remove_temporaries(path.parent)
     temporary = path.with_name(f".{path.stem}.{os.getpid()}-{secrets.token_hex(4)}.tmp{path.suffix}")  # suffix: PIL's format
@@ -42,9 +43,7 @@ def remove_temporaries(folder: Path) -> None:
 
 def remove_leftovers(folder: Path, prefix: str) -> None:
     """Remove the entries ``{prefix}{pid}-…`` of ``folder`` whose process ``pid`` has ended."""
-    if not folder.is_dir():
-        return
-    for entry in folder.glob(f"{glob.escape(prefix)}*-*"):
+    for entry in folder.glob(f"{glob.escape(prefix)}*-*") if folder.is_dir() else ():
         pid = entry.name[len(prefix):].split("-", 1)[0]
         if pid.isdigit() and not running(int(pid)):
             if entry.is_dir():
@@ -54,21 +53,14 @@ def remove_leftovers(folder: Path, prefix: str) -> None:
 
 
 def running(pid: int) -> bool:
-    """Whether process ``pid`` still runs (on this machine): not one that has ended, nor one that
-    has ended and is not yet reaped by its parent (a zombie, where Linux's /proc tells)."""
+    """Whether process ``pid`` still runs on this machine (a zombie does not; one of another user's
+    whose state cannot be read does)."""
     try:
-        os.kill(pid, 0)  # signal 0: asks, sends nothing
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
+        return psutil.pid_exists(pid) and psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.AccessDenied:
         return True
-    except (OverflowError, OSError):
+    except (psutil.NoSuchProcess, OverflowError):  # ended between the two questions; a pid past any process's
         return False
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"  # after "pid (name)": the state
-    except (OSError, IndexError):  # no /proc
-        return True
-
 
 
 def write_json(path: str | Path, data: dict, indent: int = 2) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib.util
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Iterator
 
 import numpy as np
 import torch
@@ -16,30 +16,28 @@ from torch import Tensor
 from nsp.errors import BadInput
 
 
-def _data_file(package: str, folder: str, name: str) -> Callable[[], Path]:
-    """Where a photo that ships inside ``package`` lies; found without importing the package's
-    modules (scikit-image's loaders pull in scipy, about a second)."""
-    def where() -> Path:
-        spec = importlib.util.find_spec(package)
-        if spec is None or not spec.submodule_search_locations:
-            raise ImageError(f"image={name.split('.')[0]} ships with {package}, which is not installed")
-        return Path(spec.submodule_search_locations[0]) / folder / name
-
-    return where
-
-
-BUILTIN: dict[str, Callable[[], Path]] = {
-    "astronaut": _data_file("skimage", "data", "astronaut.png"),
-    "chelsea": _data_file("skimage", "data", "chelsea.png"),
-    "coffee": _data_file("skimage", "data", "coffee.png"),
-    "rocket": _data_file("skimage", "data", "rocket.jpg"),
-    "flower": _data_file("sklearn", "datasets/images", "flower.jpg"),
-    "china": _data_file("sklearn", "datasets/images", "china.jpg"),
+BUILTIN = {  # the photos that ship with scikit-image and scikit-learn: name -> (package, folder, file)
+    "astronaut": ("skimage", "data", "astronaut.png"),
+    "chelsea": ("skimage", "data", "chelsea.png"),
+    "coffee": ("skimage", "data", "coffee.png"),
+    "rocket": ("skimage", "data", "rocket.jpg"),
+    "flower": ("sklearn", "datasets/images", "flower.jpg"),
+    "china": ("sklearn", "datasets/images", "china.jpg"),
 }
 
 
 class ImageError(BadInput):
     """An ``image=`` that cannot be painted; the message names it and what is valid."""
+
+
+def _builtin(name: str) -> Path:
+    """Where the built-in photo ``name`` lies, found without importing its package's modules
+    (scikit-image's loaders pull in scipy, about a second)."""
+    package, folder, file = BUILTIN[name]
+    spec = importlib.util.find_spec(package)
+    if spec is None or not spec.submodule_search_locations:
+        raise ImageError(f"image={name} ships with {package}, which is not installed")
+    return Path(spec.submodule_search_locations[0]) / folder / file
 
 
 VALID = f"give a PNG/JPEG path or one of: {', '.join(BUILTIN)}"
@@ -49,15 +47,13 @@ TURNED = (5, 6, 7, 8)  # EXIF orientations that swap width and height
 
 
 def load_image(spec: str, max_side: int | None = None, key: str = "image") -> Tensor:
-    """A built-in photo's name or an image file's path -> (3, H, W) float in [0, 1]; errors name
-    it as ``key=spec``.
+    """A built-in photo's name or an image file's path -> (3, H, W) float in [0, 1], as an image viewer
+    shows it (upright as its EXIF says, transparent pixels over white); errors name it as ``key=spec``.
 
-    Upright as the EXIF orientation says and transparent pixels over white, as an image viewer
-    shows it. With ``max_side``, a photo whose long side is longer comes back with long side
-    ``max_side`` (aspect kept), reduced while it is decoded, so the full size is never held as
-    floats (nor, for JPEG, decoded at all).
+    With ``max_side``, a longer photo comes back with long side ``max_side`` (aspect kept), reduced while
+    it is decoded, so the full size is never held as floats (nor, for JPEG, decoded at all).
     """
-    path = BUILTIN[spec]() if spec in BUILTIN else Path(spec).expanduser()
+    path = _builtin(spec) if spec in BUILTIN else Path(spec).expanduser()
     if not path.is_file():
         raise ImageError(f"{key}={spec}: no such file; {VALID}")
     with _readable(f"{key}={spec}"):
@@ -72,10 +68,8 @@ def load_image(spec: str, max_side: int | None = None, key: str = "image") -> Te
 
 @contextmanager
 def _readable(given: str) -> Iterator[None]:
-    """PIL's errors while reading the image ``given`` (``key=spec``) -> one-line ImageErrors.
-
-    PIL's size guard, a module global, is lifted meanwhile: load_image checks the size itself.
-    """
+    """PIL's errors while reading the image ``given`` (``key=spec``) -> one-line ImageErrors; PIL's size
+    guard, a module global, is lifted meanwhile (load_image checks the size itself)."""
     guard, Image.MAX_IMAGE_PIXELS = Image.MAX_IMAGE_PIXELS, None
     try:
         yield
@@ -138,17 +132,15 @@ def from_pil(image: Image.Image) -> Tensor:
 def from_array(pixels: np.ndarray | Tensor, key: str = "image") -> Tensor:
     """A numpy array or torch tensor -> (3, H, W) float32 in [0, 1], alpha over white.
 
-    Layouts: :data:`LAYOUTS`; where both ends could be channels ((3, H, 4)), a tensor is read
-    channels first, an array channels last. Values by dtype (:data:`DTYPES`): uint8 / 255,
-    uint16 / 65535, floats as they are. Values outside their dtype's range, or not finite, are
-    refused (:class:`ImageError` naming ``key``), not rescaled.
+    Layouts: :data:`LAYOUTS`; where both ends could be channels ((3, H, 4)), a tensor is read channels
+    first, an array channels last. Values by dtype (:data:`DTYPES`); outside its range, or not finite,
+    they are refused (:class:`ImageError` naming ``key``), not rescaled.
     """
     tensor = isinstance(pixels, Tensor)
     if tensor:
         pixels = pixels.detach().cpu()
-        pixels = (pixels.float() if pixels.dtype == torch.bfloat16 else pixels).numpy()
-    else:
-        pixels = np.asarray(pixels)
+        pixels = pixels.float() if pixels.dtype == torch.bfloat16 else pixels  # numpy has no bfloat16
+    pixels = np.asarray(pixels)
     shape = tuple(pixels.shape)
     if pixels.ndim == 4 and shape[0] == 1:
         pixels = pixels[0]
@@ -208,15 +200,12 @@ def psnr(a: Tensor, b: Tensor) -> Tensor:
 
 def ssim(a: Tensor, b: Tensor, sigma: float = 1.5) -> Tensor:
     """SSIM of images in [0, 1], (C, H, W) pairs -> (), as Wang et al. and ``skimage`` with
-    ``gaussian_weights`` (window σ, radius ⌊3.5σ + 0.5⌋, population covariances): the mean over
-    channels and over the pixels whose window lies inside the image. On an image narrower than
-    the window (11 px at σ = 1.5), the window is cut to its width, where skimage refuses. Written
-    here because skimage's import (scipy) costs a painting 0.2–0.3 s and torchmetrics' seconds."""
+    ``gaussian_weights`` (window σ, radius ⌊3.5σ + 0.5⌋, population covariances), averaged over channels
+    and the pixels whose window lies inside the image; a window wider than the image is cut to it (skimage
+    refuses). Written here: skimage's import (scipy) costs a painting 0.2–0.3 s, torchmetrics' seconds."""
     radius = min(int(3.5 * sigma + 0.5), (min(a.shape[-2:]) - 1) // 2)
-    x = torch.arange(-radius, radius + 1, dtype=a.dtype, device=a.device)
-    g = torch.exp(-0.5 * (x / sigma) ** 2)
-    g = g / g.sum()
-    channels = a.shape[0]
+    g = torch.exp(-0.5 * (torch.arange(-radius, radius + 1, dtype=a.dtype, device=a.device) / sigma) ** 2)
+    g, channels = g / g.sum(), a.shape[0]
     stack = torch.stack([a, b, a * a, b * b, a * b]).reshape(1, 5 * channels, *a.shape[-2:])
     window = g.expand(5 * channels, 1, 1, -1)
     mean = F.conv2d(F.conv2d(stack, window, groups=5 * channels), window.transpose(-1, -2), groups=5 * channels)

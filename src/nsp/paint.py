@@ -1,8 +1,5 @@
 """``python -m nsp.paint image=photo.jpg brush=oilpaint strokes=500``: paint a photo with vector
-strokes (paper §3).
-
-Config: ``conf/paint/paint.yaml``; results in the Hydra run dir: ``final.png``, ``strokes.json``,
-``painting.svg``, ``animation.gif``, ``metrics.json``, TensorBoard events, ``paint.log``. The work's
+strokes (paper §3). Config: ``conf/paint/paint.yaml``; results in the Hydra run dir. The work's
 modules (torch) are imported only once the command line has been read.
 """
 from __future__ import annotations
@@ -12,11 +9,11 @@ import sys
 from pathlib import Path
 
 from hydra.core.hydra_config import HydraConfig
-from omegaconf import MISSING, DictConfig
+from omegaconf import DictConfig, OmegaConf
 
-from nsp.cli import INTERRUPTED, command, kept, program, run_job, side_by_side
+from nsp.cli import INTERRUPTED, command, kept, program, run_job
 from nsp.config import BrushConfig
-from nsp.painter.schema import PaintConfig, follows_checkpoint  # config only: no torch
+from nsp.painting.schema import PaintConfig, follows_checkpoint, paint_settings  # config only: no torch
 from nsp.signals import numpy_before_torch
 from nsp.text import counted
 
@@ -32,22 +29,17 @@ def main(cfg: DictConfig) -> float | None:
         what = f"{cfg.strokes} strokes of the checkpoint's brush" if follows_checkpoint(cfg, named) else counted(cfg.strokes, cfg.brush.name + " stroke")
         log.info(f"painting {cfg.image} with {what}…")
     numpy_before_torch()
-    import torch
     from hydra.utils import instantiate
 
-    from nsp.painter.run import paint
+    from nsp.painting.run import paint
 
-    if cfg.threads is None and side_by_side():
-        cfg.threads = 1  # the sweep's jobs run side by side (joblib, submitit_local), a core each
     if cfg.task is not None:  # a painting experiment (experiment=ot_push, ot_digits, renderer_painting)
-        if cfg.threads:
-            torch.set_num_threads(cfg.threads)
         metrics = run_job(cfg, instantiate(cfg.task))
         if metrics is not None:
             log.info(f"{cfg.output_dir}: " + ", ".join(f"{key} {value}" for key, value in metrics.items()))
         return None if metrics is None else metrics.get("psnr", 0.0)
     try:
-        metrics = run_job(cfg, lambda cfg: paint(cfg, brush_named=named))  # its last line tells what was painted, how well, how fast, where
+        metrics = run_job(cfg, lambda cfg: paint(paint_settings(cfg), brush_named=named))  # its last line tells what was painted, how well, how fast, where
     except KeyboardInterrupt:
         saved = [name for name in ("strokes.json", "final.png") if (Path(cfg.output_dir) / name).is_file()]
         print(f"interrupted: {' and '.join(saved)} of what was painted in {cfg.output_dir}" if saved else
@@ -56,9 +48,9 @@ def main(cfg: DictConfig) -> float | None:
     return None if metrics is None else metrics["psnr"]  # None: a failed job of a sweep, recorded in its dir
 
 
-def schema() -> object:
+def schema() -> DictConfig:
     """The structured config the command line is checked against (importing it registered ``paint_schema``)."""
-    return PaintConfig(brush=BrushConfig(MISSING))
+    return OmegaConf.merge(PaintConfig, {"brush": BrushConfig})
 
 
 def cli() -> None:

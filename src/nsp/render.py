@@ -7,12 +7,13 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Optional, Union
 
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, OmegaConf
 
 from nsp.cli import command, fail, program
+from nsp.config import compile_choice
 from nsp.errors import BadInput
 from nsp.signals import numpy_before_torch
 
@@ -25,8 +26,8 @@ class RenderConfig:
     out: str = MISSING
     size: int = 512
     background: Optional[str] = None  # None: the stroke file's own background
-    # the compiled kernels: true, compiled first where missing; null (auto): those this machine has (nsp.engine.fused.choose)
-    compile: Optional[bool] = None
+    # the compiled kernels: true, compiled first where missing; auto: those this machine has (nsp.engine.fused.choose)
+    compile: Union[bool, str, None] = "auto"
     device: str = "cpu"  # cpu, cuda, cuda:N or auto
     brush: Optional[Any] = None  # a ``brush`` group option (nsp.config.BrushConfig); for reference .npz files only
 
@@ -51,6 +52,7 @@ def render(cfg: DictConfig) -> Path:
     if suffix not in EXTENSIONS:
         raise BadInput(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS)}")
     check_side(cfg.size)
+    compile = compile_choice(cfg.compile, "compile")
     device = resolve_device(cfg.device)
     name = cfg.brush.name if cfg.get("brush") else None  # reference .npz files only
     painting = load_strokes(cfg.strokes, brush=name, size=cfg.size)
@@ -64,7 +66,7 @@ def render(cfg: DictConfig) -> Path:
     except OSError as err:
         raise BadInput(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
     try:
-        write_painting(out, brush, painting.strokes.to(device), height, width, background, cfg.compile)
+        write_painting(out, brush, painting.strokes.to(device), height, width, background, compile)
     except OSError as err:
         raise BadInput(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out

@@ -1,12 +1,6 @@
-"""``python -m nsp.report [DIR]``: tables and plots of training or painting runs, written into DIR.
-
-DIR is a multirun's sweep dir, a folder of run dirs, or one run's dir; without it, the newest sweep
-under ``multirun/``. Writes ``report.md`` (what every job shares, a row per job with the columns that
-tell jobs apart; renderer studies also get the renderer × brush table, mean ± std over seeds, beside
-the paper's), ``report.csv`` (a row per job, every column), one ``<tag>.png`` per TensorBoard curve
-and a bar chart of the final score. The reporting modules (TensorBoard's reader, matplotlib) are
-imported only once the command line has been read.
-"""
+"""``python -m nsp.report [DIR]``: tables and plots of training or painting runs, written into DIR
+(:func:`~nsp.reporting.write_report`). The reporting modules (TensorBoard's reader, matplotlib) are
+imported only once the command line has been read."""
 from __future__ import annotations
 
 import argparse
@@ -15,6 +9,7 @@ from pathlib import Path
 
 from nsp.cli import fail
 from nsp.errors import BadInput
+from nsp.text import counted
 
 SUMMARY = "Tables and plots of training or painting runs, written into DIR."
 EXAMPLES = """examples:
@@ -39,9 +34,8 @@ def cli(argv: list[str] | None = None) -> None:
         report, table, *plots = write_report(args.dir or latest_sweep(Path("multirun")))
     except BadInput as error:
         fail(str(error))
-    jobs = len(collect(report.parent))
-    print(f"reported {jobs} run{'s' * (jobs != 1)} in {time.perf_counter() - start:.1f} s: {report} "
-          f"(and {table.name}, {len(plots)} plot{'s' * (len(plots) != 1)})")
+    print(f"reported {counted(len(collect(report.parent)), 'run')} in {time.perf_counter() - start:.1f} s: {report} "
+          f"(and {table.name}, {counted(len(plots), 'plot')})")
 
 
 if __name__ == "__main__":

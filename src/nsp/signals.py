@@ -15,8 +15,8 @@ def interrupt(signum: int, frame: Any) -> None:
 
 @contextmanager
 def shielded() -> Iterator[None]:
-    """Ctrl-C and SIGTERM wait while the block runs (saving what an interrupted run had), so a
-    second Ctrl-C cannot cut the files short; the first one was already handled."""
+    """Ignore Ctrl-C and SIGTERM while the block saves what an interrupted run had: a second Ctrl-C
+    cannot cut the files short."""
     handlers = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
@@ -26,6 +26,5 @@ def shielded() -> Iterator[None]:
 
 
 def numpy_before_torch() -> None:
-    """Import numpy, before torch: torch's own import of it swallows a Ctrl-C that lands there (torch
-    goes on without numpy, and a painting went on to its end, or failed later on a half-made numpy)."""
+    """Import numpy before torch: torch's own import of it swallows a Ctrl-C that lands there."""
     import numpy  # noqa: F401

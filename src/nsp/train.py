@@ -1,8 +1,6 @@
-"""``python -m nsp.train renderer=R brush=B``: train a neural stroke renderer (paper §3.2).
-
-Config: ``conf/train/train.yaml``; results in the Hydra run dir (``metrics.json``, ``checkpoints/``,
-TensorBoard events, ``train.log``). Lightning and torch are imported only once the command line has
-been read.
+"""``python -m nsp.train renderer=R brush=B``: train a neural stroke renderer (paper §3.2). Config:
+``conf/train/train.yaml``; results in the Hydra run dir. Lightning and torch are imported only once
+the command line has been read.
 """
 from __future__ import annotations
 
@@ -32,10 +30,9 @@ def main(cfg: DictConfig) -> float | None:
         metrics = run_job(cfg, train)  # a bad value the schema cannot type (e.g. model.size=48): one line, no traceback
     except KeyboardInterrupt:
         last = Path(cfg.output_dir) / "checkpoints" / "last.ckpt"
-        if not speaks:
-            sys.exit(INTERRUPTED)
-        print(f"interrupted: resume with ckpt_path={last} hydra.run.dir={cfg.output_dir}" if last.is_file() else
-              "interrupted before training began; nothing saved", file=sys.stderr)
+        if speaks:
+            print(f"interrupted: resume with ckpt_path={last} hydra.run.dir={cfg.output_dir}" if last.is_file() else
+                  "interrupted before training began; nothing saved", file=sys.stderr)
         sys.exit(INTERRUPTED)
     if metrics is None or again or not speaks:  # a failed job of a sweep, recorded in its dir; a kept one
         return None if metrics is None else metrics.get("val/psnr")

@@ -1,12 +1,8 @@
 """``python -m nsp.engine [BRUSH ...] [--width PX ...]``: compile the kernels a painting with each
-named brush uses (every brush where none is named) into this machine's kernel cache: the soft shading
-and its gradient (:class:`nsp.engine.raster.AnySizeShade`), the plain paint's antialiased shading, all
-of any canvas size, and the shading of a painting's files where a brush draws them with more detail
-(oil's bristles), for files ``--width`` px wide (those of a painting on the defaults where none is
-given). Paintings then take them from their first run (``compile`` left to auto); ``make setup``
-compiles the demo's brush, a job a core. A brush whose kernels cannot be compiled here is named and
-skipped: its strokes are then shaded eagerly. Kernels already in the cache are checked, not compiled
-again."""
+named brush (default: all) uses into this machine's kernel cache, a job a core
+(:func:`~nsp.engine.precompile.compile_for_painting`), so paintings take them from their first run
+(``compile`` left to auto). A brush whose kernels cannot be compiled here is named and skipped: its
+strokes are then shaded eagerly. Kernels already in the cache are checked, not compiled again."""
 from __future__ import annotations
 
 import argparse
@@ -15,8 +11,11 @@ import os
 import sys
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
+import torch
+
 from nsp.brushes import BRUSHES
 from nsp.engine import fused
+from nsp.engine.precompile import compile_for_painting
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -48,8 +47,10 @@ def main(argv: list[str] | None = None) -> int:
                 details.setdefault(BRUSHES[name].sized(width).variant, width)
         jobs += [(name, width) for width in details.values()]
     spawn = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(min(len(jobs), os.cpu_count() or 1), mp_context=spawn) as pool:
-        for done in as_completed([pool.submit(fused.compile_for_painting, *job) for job in jobs]):
+    # A job a core, each on one thread (set in each worker: spawned, it starts a fresh torch), so jobs never contend.
+    with ProcessPoolExecutor(min(len(jobs), os.cpu_count() or 1), mp_context=spawn,
+                             initializer=torch.set_num_threads, initargs=(1,)) as pool:
+        for done in as_completed([pool.submit(compile_for_painting, *job) for job in jobs]):
             print(done.result(), flush=True)
     return 0
 

@@ -16,10 +16,9 @@ CHUNK_STROKES = 1024  # and the most strokes
 
 
 def chunks(brush: Brush, strokes: Tensor, height: int, width: int, most: int = CHUNK_STROKES) -> list[Tensor]:
-    """``strokes`` (N, d) cut into consecutive runs of at most ``most`` strokes whose bounding
-    boxes on a ``height``×``width`` canvas hold at most :data:`CHUNK_PIXELS` pixels together (a
-    larger stroke alone): what :class:`TiledCanvas` renders at once, so its memory is bounded by
-    the canvas, however large the strokes."""
+    """``strokes`` (N, d) cut into consecutive runs of at most ``most`` strokes whose bounding boxes on a
+    ``height``×``width`` canvas hold at most :data:`CHUNK_PIXELS` pixels together (a larger stroke
+    alone): what :class:`TiledCanvas` renders at once, so its memory is bounded however large the strokes."""
     total = brush.box_area(strokes, height, width).cumsum(0)
     parts, start = [], 0
     while start < len(strokes):
@@ -33,10 +32,9 @@ def chunks(brush: Brush, strokes: Tensor, height: int, width: int, most: int = C
 
 
 def box_images(brush: Brush, strokes: Tensor, tiles: Tiles, height: int, width: int) -> list[tuple[int, int, Tensor]]:
-    """The ``tiles`` of ``strokes`` (n, d) on a ``height``×``width`` canvas as an image a stroke:
-    its first column and row on the canvas, and its colour and alpha (h, w, 4) in [0, 1] (a view),
-    over the canvas pixels of its box that its tiles cover (empty where it has none); elsewhere
-    the stroke is transparent."""
+    """The ``tiles`` of ``strokes`` (n, d) on a ``height``×``width`` canvas as an image a stroke: its first
+    column and row on the canvas, and its colour and alpha (h, w, 4) in [0, 1] (a view) over the canvas
+    pixels of its box that its tiles cover (empty where none); elsewhere the stroke is transparent."""
     b, t, side = tiles.stroke, tiles.tile, math.isqrt(tiles.alpha.shape[1])
     n, zero = len(strokes), torch.zeros(len(strokes), dtype=torch.long, device=t.device)
     row, col = torch.div(t, tiles.cols, rounding_mode="floor"), t % tiles.cols
@@ -64,23 +62,19 @@ def box_images(brush: Brush, strokes: Tensor, tiles: Tiles, height: int, width: 
 
 
 class TiledCanvas:
-    """A canvas kept as tiles (rows·cols, 3, tile²) while strokes are painted onto it, so painting
-    a few strokes costs only the tiles they touch, and a region is read back without untiling the
-    rest (an animation's frames)."""
+    """A canvas kept as tiles (rows·cols, 3, tile²) while strokes are painted onto it: painting a few
+    strokes costs only the tiles they touch, and a region (an animation's frame) is read back alone."""
 
     def __init__(self, canvas: Tensor, tile: int = 8):
         """``canvas``: (3, H, W) in [0, 1], the picture to paint on."""
-        self.height, self.width = canvas.shape[-2:]
-        self.tile = tile
+        self.height, self.width, self.tile = *canvas.shape[-2:], tile
         self.tiles = to_tiles(canvas, tile)  # a copy: strokes are blended into it in place
 
     def paint(self, brush: Brush, strokes: Tensor, *, softness: float | None = None, chunk: int = CHUNK_STROKES,
               compile: bool | None = False, first: int = 0, images: list | None = None) -> None:
-        """Composite ``strokes`` (N, d), numbers ``first``, … of their painting, in order, a
-        :func:`chunks` at a time (memory stays bounded); ``compile``: shade them on the compiled
-        path (:mod:`nsp.engine.fused`: True, compiled first where missing; None, where this machine
-        has its kernels; False, never); ``images``, if given, gets each stroke's :func:`box_images`
-        from the same tiles."""
+        """Composite ``strokes`` (N, d), numbers ``first``, … of their painting, in order, a :func:`chunks`
+        at a time (memory stays bounded); ``compile`` as :func:`~nsp.engine.raster.render`'s; ``images``,
+        if given, gets each stroke's :func:`box_images`."""
         for _ in self.paint_until(brush, strokes, [len(strokes)], softness=softness, chunk=chunk, compile=compile,
                                   first=first, images=images):
             pass
@@ -89,8 +83,7 @@ class TiledCanvas:
                     chunk: int = CHUNK_STROKES, compile: bool | None = False, first: int = 0,
                     images: list | None = None) -> Iterator[int]:
         """:meth:`paint`, pausing once strokes[:end] are on the canvas to yield ``end``, for each of
-        ``ends`` (ascending, the last N): an animation's frames. Strokes are still rasterized a chunk
-        at a time, not a frame at a time."""
+        ``ends`` (ascending, the last N): an animation's frames, still rasterized a chunk at a time."""
         ends, done = iter(ends), 0
         end = next(ends, None)
         for part in chunks(brush, strokes, self.height, self.width, chunk):
@@ -101,8 +94,8 @@ class TiledCanvas:
             start, stop = done, done + len(part)
             while start < stop:  # the chunk's strokes up to the next end, or to its own end
                 until = min(stop, len(strokes) if end is None else end)
-                whole = (start, until) == (done, stop)
-                composite_tiles(tiles if whole else tiles.between(start - done, until - done), self.tiles)
+                part = tiles if (start, until) == (done, stop) else tiles.between(start - done, until - done)
+                composite_tiles(self.tiles, part.tile, part.fg, part.alpha, part.layers)
                 if until == end:
                     yield end
                     end = next(ends, None)
@@ -121,32 +114,14 @@ class TiledCanvas:
         return image[:, top - r0 * t : bottom - r0 * t, left - c0 * t : right - c0 * t]
 
 
-def paint_canvas(
-    brush: Brush,
-    strokes: Tensor,
-    height: int,
-    width: int,
-    background: str | tuple = "white",
-    *,
-    softness: float | None = None,
-    canvas: Tensor | None = None,
-    chunk: int = CHUNK_STROKES,
-    tile: int = 8,
-    compile: bool | None = None,
-    first: int = 0,
-    images: list | None = None,
-) -> Tensor:
+def paint_canvas(brush: Brush, strokes: Tensor, height: int, width: int, background: str | tuple = "white", *,
+                 softness: float | None = None, canvas: Tensor | None = None, chunk: int = CHUNK_STROKES, tile: int = 8,
+                 compile: bool | None = None, first: int = 0, images: list | None = None) -> Tensor:
     """Composite ``strokes`` (N, d), numbers ``first``, … of their painting, in order, onto a
-    canvas: (3, H, W) in [0, 1].
-
-    Only the tiles each stroke touches are rendered and blended, ``chunk`` strokes at a time, so
-    a painting of thousands of strokes renders at any size in bounded memory.
-    ``canvas`` (3, H, W), if given, replaces the plain ``background``. ``compile``: shade on the
-    compiled path, its kernels compiled first where this machine has none; None (auto): where it
-    has them (:func:`nsp.engine.fused.choose`); False: never.
-    ``images``, if given, gets each stroke's :func:`box_images` (what an SVG holds of a brush whose
-    paint has no vector form), from the same tiles.
-    """
+    canvas: (3, H, W) in [0, 1]. Only the tiles each stroke touches are rendered and blended,
+    ``chunk`` strokes at a time, so any size renders in bounded memory. ``canvas`` (3, H, W), if
+    given, replaces the plain ``background``; ``compile``, ``first``, ``images``: as
+    :meth:`TiledCanvas.paint`'s (``images``: what an SVG holds of a brush whose paint has no vector form)."""
     if canvas is None:
         color = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)
         canvas = color[:, None, None].expand(3, height, width)

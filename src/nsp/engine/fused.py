@@ -1,18 +1,14 @@
 """The engine's compiled path: its per-pair kernels compiled ahead of time by AOTInductor, kept on disk.
 
-Culling and shading run tens to hundreds of elementwise ops a pixel (a Bézier brush solves a cubic
-and scans its swept discs); eager PyTorch makes one pass over memory per op, a compiled kernel one
-loop, 1.5–8× faster on a CPU. A kernel of a brush at a canvas size is exported and compiled once
-on a machine (15–60 s) into a package under ``~/.cache/nsp/kernels``; later processes load it in
-milliseconds.
+Culling and shading run tens to hundreds of elementwise ops a pixel; eager PyTorch makes one pass
+over memory per op, a compiled kernel one loop. A kernel of a brush at a canvas size is compiled
+once a machine into a package under ``~/.cache/nsp/kernels``, which later processes load.
 
-Whether a render takes this path is its caller's choice, ``compile``: True compiles the kernels this
-machine lacks and uses them; None (auto) uses those on disk and draws eagerly where there are none,
-saying once a process which ``python -m nsp.engine BRUSH`` compiles them (:func:`choose`); False
-never looks at the cache. A kernel loaded from the cache is checked against the eager stage it
-stands for, on a sample of the pairs of its first call, before it draws anything: one that draws
-otherwise (another brush's or canvas's file under its name) is removed, one that cannot be loaded
-(corrupt, or no room to unpack it) is set aside, and the render goes on eagerly either way.
+A render's ``compile``: True compiles the kernels this machine lacks and uses them; None (auto) uses
+those on disk and draws eagerly where there are none, saying once a process which ``python -m
+nsp.engine BRUSH`` compiles them (:func:`choose`); False never looks at the cache. A loaded kernel is
+checked against its eager stage on a sample of its first call's pairs before it draws anything: one
+that draws otherwise is removed, one that cannot be loaded is set aside; the render goes on eagerly.
 """
 from __future__ import annotations
 
@@ -25,8 +21,7 @@ import os
 import shutil
 import tempfile
 import threading
-import time
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -57,7 +52,7 @@ COMPILE_ROOM = 32 << 20  # free room a compile needs in the cache: its package i
 # What the loader says when the disk, not the file, is at fault: the file is kept.
 DISK_FAULTS = ("write callback failed", "temporary directory", "Failed to create directory", "No space left")
 
-# torch._inductor.aoti_load_package wraps this loader, but importing torch._inductor takes ~1.5 s, longer than most renders.
+# Its public wrapper, torch._inductor.aoti_load_package, imports torch._dynamo: ~1.1 s a painting.
 _Loader = torch._C._aoti.AOTIModelPackageLoader
 
 _LOCK = threading.RLock()  # one thread loads, checks or compiles a kernel at a time (final.png's and the GIF's)
@@ -94,10 +89,9 @@ def _key(stage, brush: Brush, consts: dict, device: torch.device) -> tuple:
 
 def shading(brush: Brush, x: Tensor, height: int, width: int, softness: float | None = None,
             tile: int = 8) -> list[tuple[Any, Brush, dict]]:
-    """The kernels (stage, brush, constants) that shade strokes ``x`` (N, d) on a ``height``×``width``
-    canvas on the compiled path: one of every canvas size where the brush has a
-    :meth:`~nsp.brushes.Brush.sized` form (with its gradient's, while gradients flow), else one of
-    this canvas (:func:`nsp.engine.raster.rasterize`)."""
+    """The kernels (stage, brush, constants) ``rasterize`` shades strokes ``x`` (N, d) with on a
+    ``height``×``width`` canvas: one of every canvas size where the brush has a :meth:`~nsp.brushes.Brush.sized`
+    form (with its gradient's, while gradients flow), else one of this canvas."""
     if (sized := brush.sized(width)) is None:
         return [(shade_tiles, brush, dict(height=height, width=width, tile=tile, softness=softness))]
     consts = dict(softness=softness, tile=tile)
@@ -108,10 +102,9 @@ def shading(brush: Brush, x: Tensor, height: int, width: int, softness: float | 
 def choose(compile: bool | None, brush: Brush, x: Tensor, height: int, width: int, softness: float | None = None,
            tile: int = 8) -> bool:
     """Whether rendering strokes ``x`` (N, d) on a ``height``×``width`` canvas takes the compiled
-    path: ``compile`` itself where it is True or False; where it is None (auto), whether this
-    machine has the kernels of its :func:`shading` (on the CPU: those are the ones
-    ``python -m nsp.engine`` compiles). Where it has not, the first such render of a process says
-    once, in one line, which command compiles them; no timing decides."""
+    path: ``compile`` itself where it is True or False; where it is None (auto), whether this CPU
+    has the kernels of its :func:`shading`, the first render of a process without them saying once
+    which command compiles them."""
     if compile is not None:
         return bool(compile)
     if x.device.type != "cpu":
@@ -143,16 +136,15 @@ def _tell(brush: Brush, missing: Path, width: int) -> None:
 
 
 def painting_kernels(name: str, widths: tuple[int, ...] | None = None) -> list[tuple[Any, Brush, dict]]:
-    """The kernels (stage, brush, constants) ``python -m nsp.engine name`` compiles: without
-    ``widths``, the painter's (its soft shading at its own softness and that shading's gradient, and
-    its plain paint's antialiased shading); with them, the antialiased shading of the files of those
-    widths, where the brush draws them with more detail (oil's bristles). All of any canvas size."""
+    """The kernels (stage, brush, constants), all of any canvas size, ``python -m nsp.engine name``
+    compiles: without ``widths``, the painter's (its soft shading and that shading's gradient, and its
+    plain paint's antialiased shading); with them, the antialiased shading of files of those widths
+    where the brush draws them with more detail (oil's bristles)."""
     brush = brushes.BRUSHES[name]
     if widths is None:
-        soft, plain = brush.sized(32), brush.plain().sized(32)  # compile_for_painting's canvases
-        return [(shade_any_size, soft, dict(softness=brush.softness, tile=8)),
-                (shade_any_size_grad, soft, dict(softness=brush.softness, tile=8)),
-                (shade_any_size, plain, dict(softness=None, tile=8))]
+        soft, consts = brush.sized(32), dict(softness=brush.softness, tile=8)  # 32: python -m nsp.engine's canvases
+        return [(shade_any_size, soft, consts), (shade_any_size_grad, soft, consts),
+                (shade_any_size, brush.plain().sized(32), dict(softness=None, tile=8))]
     return [(shade_any_size, brush.sized(width).sized(32), dict(softness=None, tile=8)) for width in widths
             if brush.varies(width)]
 
@@ -219,8 +211,7 @@ def compile_kernel(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple
     return path
 
 
-def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, ...], *, build: bool = True,
-          **consts):
+def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, ...], *, build: bool = True, **consts):
     """``stage(brush, *paired, *fixed, **consts)`` (a function of :mod:`nsp.engine.kernels`) by its
     compiled kernel: the same outputs, for ``paired`` tensors of one row a (stroke, tile) pair
     (x (P, d), t (P,), …) for any number of pairs P, ``fixed`` tensors of the shapes they had then,
@@ -229,7 +220,7 @@ def fused(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, 
     kernel = _ready(stage, brush, paired, fixed, consts, build)
     if kernel is None:
         return stage(brush, *paired, *fixed, **consts)
-    out = kernel.boxed_run([p.contiguous() for p in paired] + list(fixed))
+    out = kernel.run([p.contiguous() for p in paired] + list(fixed))
     return out[0] if len(out) == 1 else tuple(out)
 
 
@@ -241,11 +232,10 @@ def prepare(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor
 
 
 def _ready(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor, ...], consts: dict, build: bool):
-    """The loaded, checked kernel of ``stage`` for these arguments, or None where the stage runs
-    eagerly: outside the kernel's batch sizes and dtype, while gradients flow (it has no backward),
-    where it is not on disk (and not ``build``), or where it could not be compiled, loaded or trusted
-    (said once, in a line; this process then draws without it). With ``build``, a file found
-    wanting is removed and compiled afresh, once."""
+    """The loaded, checked kernel of ``stage`` for these arguments, or None where the stage runs eagerly:
+    outside the kernel's batch sizes and dtype, while gradients flow (it has no backward), where it is
+    not on disk (and not ``build``), or where it could not be compiled, loaded or trusted (said once;
+    this process then draws without it). With ``build``, a file found wanting is compiled afresh, once."""
     x = paired[0]
     if not 2 <= len(x) <= MOST_PAIRS or x.dtype != torch.float32 or (x.requires_grad and torch.is_grad_enabled()):
         return None
@@ -258,18 +248,20 @@ def _ready(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor,
         if key in _FAILED:
             return None
         path = package(stage, brush, consts, x.device)
-        if (loaded := _LOADED.get(key)) is not None:  # its checks so far had nothing to compare: checked again
-            kernel, why, bad_file = loaded[0], "", False
-        else:
-            kernel = None
+        loaded = _LOADED.get(key)  # one loaded whose checks so far had nothing to compare is checked again
+        kernel, why, bad_file = (None if loaded is None else loaded[0]), "", False
         for again in (False, True):
             compiled = False
             if kernel is None:
                 if not path.exists():
                     if not build:
                         return None
-                    if (why := _compile(stage, brush, paired, fixed, consts, x.device)) is not None:
-                        return _without(key, why)
+                    try:
+                        compile_kernel(stage, brush, paired, fixed, consts, x.device)
+                    except OSError as err:  # a cache that cannot be written: a read-only or full disk
+                        return _without(key, f"cannot write {CACHE} ({err.strerror or err})")
+                    except Exception as err:  # no C++ compiler, a graph torch cannot export: drawn eagerly
+                        return _without(key, f"{path.name} could not be compiled ({_first_line(err)})")
                     compiled = True
                 kernel, why, bad_file = _load(path, x.device)
             if kernel is not None:
@@ -281,28 +273,35 @@ def _ready(stage, brush: Brush, paired: tuple[Tensor, ...], fixed: tuple[Tensor,
                 kernel, bad_file = None, True
                 why = f"{path.name} does not draw what it is named for (a file of another brush or canvas?)"
             if bad_file:
-                _remove(path)
+                with suppress(OSError):  # a read-only cache: the next process checks it again
+                    path.unlink(missing_ok=True)
                 why += "; removed it"
             if not bad_file or not build or compiled or again:
                 return _without(key, why)
             log.warning(f"compiled kernels: {why}, compiling it afresh")
 
 
-def _compile(stage, brush: Brush, paired, fixed, consts: dict, device: torch.device) -> str | None:
-    """Compile a kernel into the cache; None, or why it could not be."""
-    try:
-        compile_kernel(stage, brush, paired, fixed, consts, device)
-    except OSError as err:  # a cache that cannot be written: a read-only or full disk
-        return f"cannot write {CACHE} ({err.strerror or err})"
-    except Exception as err:  # no C++ compiler, a graph torch cannot export: painting still works, eagerly
-        return f"{package(stage, brush, consts, device).name} could not be compiled ({_first_line(err)})"
-    return None
+RUNNERS = 2  # threads a loaded kernel runs for at once: final.png's and animation.gif's
+
+
+class _Kernel:
+    """A loaded kernel, run by at most :data:`RUNNERS` threads at once. The loader's run waits for a
+    free runner holding the GIL, while a running one may need the GIL to free a tensor: a caller
+    beyond its runners would deadlock both, so it waits here instead, the GIL released."""
+
+    def __init__(self, loader):
+        self.loader, self.free = loader, threading.BoundedSemaphore(RUNNERS)
+
+    def run(self, tensors: list[Tensor]) -> list[Tensor]:
+        with self.free:
+            return self.loader.boxed_run(tensors)
 
 
 def _load(path: Path, device: torch.device) -> tuple[Any, str, bool]:
     """The package at ``path`` loaded, or None, why not and whether the file is at fault (corrupt,
     or compiled for something else), not the disk (no room to unpack it)."""
-    unpack = _unpack_dir()
+    # Where the C++ loader unpacks packages: std::filesystem::temp_directory_path on POSIX.
+    unpack = next((os.environ[name] for name in ("TMPDIR", "TMP", "TEMP", "TEMPDIR") if os.environ.get(name)), "/tmp")
     try:
         room = UNPACK_FACTOR * path.stat().st_size + UNPACK_MARGIN
         if shutil.disk_usage(unpack).free < room:
@@ -312,7 +311,7 @@ def _load(path: Path, device: torch.device) -> tuple[Any, str, bool]:
         if recorded != _identity(path):  # compiled by this module for another path: another brush's, canvas's, torch's
             return None, f"{path.name} was compiled for {recorded}", True
         with _unpacked_apart(unpack):
-            return _Loader(str(path), "model", False, 1, -1 if device.index is None else device.index), "", False
+            return _Kernel(_Loader(str(path), "model", False, RUNNERS, -1 if device.index is None else device.index)), "", False
     except OSError as err:
         return None, f"cannot read {path.name} ({err.strerror or err})", False
     except RuntimeError as err:  # a package that cannot be loaded: truncated, empty, not one; or a full disk
@@ -324,10 +323,9 @@ def _load(path: Path, device: torch.device) -> tuple[Any, str, bool]:
 
 @contextmanager
 def _unpacked_apart(unpack: str) -> Iterator[None]:
-    """The loader unpacks a package's library into a dir of its own under the temporary dir, and
-    removes it only in its destructor, which a command's process (ended by ``os._exit``) never runs:
-    every painting left four such dirs, 1.6 MB each. It unpacks into a dir made here instead, under
-    ``unpack``, removed once the library is loaded (mapped: the system keeps it while it is used)."""
+    """Have the loader unpack a package's library into a dir made here under ``unpack``, removed once
+    the library is loaded (mapped: the system keeps it while used): its own dir is removed only in its
+    destructor, which need not run at a process's end (a loader is cached for the process's life)."""
     apart = tempfile.mkdtemp(prefix="nsp-unpack-", dir=unpack)
     before = os.environ.get("TMPDIR")
     os.environ["TMPDIR"] = apart  # where the loader's std::filesystem::temp_directory_path looks first
@@ -341,32 +339,24 @@ def _unpacked_apart(unpack: str) -> Iterator[None]:
         shutil.rmtree(apart, ignore_errors=True)
 
 
-def _unpack_dir() -> str:
-    """Where the C++ loader unpacks packages: std::filesystem::temp_directory_path on POSIX."""
-    return next((os.environ[name] for name in ("TMPDIR", "TMP", "TEMP", "TEMPDIR") if os.environ.get(name)), "/tmp")
-
-
 def _agrees(kernel, stage, brush: Brush, paired, fixed, consts: dict) -> tuple[bool, bool]:
     """Whether ``kernel`` gives the outputs of the eager ``stage`` on up to :data:`PROBE_PAIRS` of
-    ``paired``'s pairs, spread over them (to float rounding: an edge pixel or two may move), and
-    whether they had anything to compare (a non-zero output). The kernel reads copies of its inputs
-    with room after them: one compiled for wider strokes, or 8-byte integers, reads that room, not
-    past its buffers."""
+    ``paired``'s pairs, spread over them (to float rounding: an edge pixel or two may move), and whether
+    they had anything to compare (a non-zero output). The kernel reads copies of its inputs with room
+    after them: one compiled for wider strokes, or 8-byte integers, reads that room, not past its buffers."""
     count = len(paired[0])
     pick = torch.linspace(0, count - 1, min(count, PROBE_PAIRS), device=paired[0].device).round().long()
     sample = [p.detach()[pick].contiguous() for p in paired]
     try:
-        got = kernel.boxed_run([_roomy(p) for p in sample] + [_roomy(f) for f in fixed])
+        got = kernel.run([_roomy(p) for p in sample] + [_roomy(f) for f in fixed])
     except RuntimeError:  # another stage's: inputs it does not take
         return False, True
     with torch.no_grad():
         want = stage(brush, *sample, *fixed, **consts)
     want = [want] if isinstance(want, Tensor) else list(want)
-    if len(got) != len(want):
+    if len(got) != len(want) or any(g.shape != w.shape or g.dtype != w.dtype for g, w in zip(got, want)):
         return False, True
     for g, w in zip(got, want):
-        if g.shape != w.shape or g.dtype != w.dtype:
-            return False, True
         g, w = g.double(), w.double()
         close = (g - w).abs() <= 1e-2 * (w.abs() + w.abs().max()) + 1e-6  # False where g is NaN
         if int((~close).sum()) > 4 + 0.01 * w.numel():
@@ -380,49 +370,18 @@ def _roomy(tensor: Tensor) -> Tensor:
     return room[: tensor.numel()].view(tensor.shape).copy_(tensor)
 
 
+def why_without(stage, brush: Brush, consts: dict, device: torch.device) -> str | None:
+    """Why this process draws ``stage`` of ``brush`` with ``consts`` on ``device`` without its
+    kernel, or None where it has loaded and checked it."""
+    key = _key(stage, brush, consts, device)
+    return None if key in _LOADED else _FAILED.get(key, "no render asked for it")
+
+
 def _without(key: tuple, why: str) -> None:
     """Draw without the kernel of ``key`` for the rest of this process, saying ``why`` in a line."""
     _FAILED[key] = why
     log.warning(f"compiled kernels: {why}; rendering without it")
 
 
-def _remove(path: Path) -> None:
-    try:
-        path.unlink(missing_ok=True)
-    except OSError:  # a read-only cache: the next process checks it again
-        pass
-
-
 def _first_line(err: BaseException) -> str:
     return (str(err).strip() or type(err).__name__).splitlines()[0][:300]
-
-
-def compile_for_painting(name: str, width: int | None = None) -> str:
-    """Compile the kernels of any canvas size a painting with the brush ``name`` uses, on one thread
-    (:func:`painting_kernels`). Without ``width``: its soft shading (its own softness) and that
-    shading's gradient, by a soft render and its backward, and the antialiased shading of its plain
-    paint (:meth:`~nsp.brushes.Brush.plain`: the painter's canvases, and the files of brushes with
-    no detail finer than their strokes). With ``width``: the antialiased shading of its paint as
-    drawn on canvases ``width`` px wide (:meth:`~nsp.brushes.Brush.sized`: oil's bristle scales), a
-    painting's files of that detail. Kernels already on disk are loaded and checked, not compiled
-    again. What happened, in a line (``python -m nsp.engine``)."""
-    from nsp.engine.raster import render  # the engine imports this module
-
-    torch.set_num_threads(1)
-    brush, start = brushes.BRUSHES[name], time.perf_counter()
-    cpu, kernels_of = torch.device("cpu"), painting_kernels(name, None if width is None else (width,))
-    there = all(package(stage, shaded, consts, cpu).exists() for stage, shaded, consts in kernels_of)
-    x, what = brush.sample(16, torch.Generator().manual_seed(0)), name if width is None else f"{name} at {width} px"
-    try:
-        if width is None:
-            strokes = x.clone().requires_grad_()
-            fg, alpha = render(brush, strokes, 32, softness=brush.softness, compile=True)
-            (fg.sum() + alpha.sum()).backward()
-        with torch.no_grad():
-            render(brush.plain() if width is None else brush.sized(width), x, 32, compile=True)
-    except Exception as err:  # painting still works, eagerly
-        return f"{what}: not compiled ({type(err).__name__}: {_first_line(err)}); it is drawn eagerly"
-    for stage, shaded, consts in kernels_of:
-        if (key := _key(stage, shaded, consts, cpu)) not in _LOADED:
-            return f"{what}: not compiled ({_FAILED.get(key, 'no render asked for it')}); it is drawn eagerly"
-    return f"{what}: already compiled (checked)" if there else f"{what}: {time.perf_counter() - start:.0f} s"

@@ -1,16 +1,14 @@
 """Memory a render needs, checked against what the machine has before any pixel is allocated, so a
 too-large ``size`` fails at once with a size that fits instead of swapping for minutes and crashing.
 
-A render's peak is the canvas itself (a few float copies of it) plus the stroke tiles of the
-largest chunk :func:`~nsp.engine.canvas.chunks` composites at once: at most
-:data:`~nsp.engine.canvas.CHUNK_PIXELS` box pixels, or one stroke's, so on a large canvas the
-canvas itself dominates.
+A render's peak is the canvas itself (a few float copies of it) plus the stroke tiles of the largest
+chunk :func:`~nsp.engine.canvas.chunks` composites at once (:data:`~nsp.engine.canvas.CHUNK_PIXELS`).
 """
 from __future__ import annotations
 
 import numbers
-import os
 
+import psutil
 from torch import Tensor
 
 from nsp.brushes.base import Brush
@@ -23,13 +21,12 @@ CANVAS_BYTES = 37  # per canvas pixel, no strokes: PNG 38.5, 36.6, 36.1 B/px at 
 TILE_BYTES = 25  # per pixel of the largest chunk's stroke boxes: 19–24 B, 500-stroke PNGs at 1000–2000 px
 FRAME_BYTES = 2.5  # per pixel and GIF frame kept until the file is written: 51 frames added 118 B/px at 1000 px
 TYPICAL_COVER = 25.0  # stroke_cover of those paintings (the painter's default progressive schedule): 13–25
-# Peak RSS per pixel of the painter's own canvases, measured with `python -m nsp.paint` (2026-11-26):
+# Peak RSS per pixel of the painter's own canvases (`python -m nsp.paint`):
 WORK_BYTES = 80  # per work_size pixel: 0.91, 1.02, 1.23 GB at work_size=256, 1024, 2048 (70 B/px)
 STYLE_BYTES = 5000  # per style.size pixel of the photo in full mode (VGG-19 features, their gradients): 4.4–4.8 kB
-# Training on the CPU (`python -m nsp.train`, 32 px): 128 -> 1024 strokes a batch added 0.28 GB, 300 B per stroke pixel.
-BATCH_BYTES = 300  # per pixel of each stroke of a batch trained on the CPU
+BATCH_BYTES = 300  # per pixel of each stroke of a batch trained on the CPU (`python -m nsp.train`, 32 px)
 SET_BYTES = 16  # per pixel of each held-out stroke: its foreground and alpha, float32
-# An SVG of a brush whose paint has no vector form holds each stroke's paint as an image: estimated, not measured,
+# Estimated: an SVG of a brush whose paint has no vector form holds each stroke's paint as an image,
 IMAGE_BYTES = 20  # per pixel of every stroke's box: its colour and alpha kept as float32 till encoded (16 B), a PNG of it
 MIN_SIDE, MAX_SIDE = 16, 10**9  # a render's long side, in pixels: smaller shows nothing, larger fits no machine
 
@@ -39,15 +36,8 @@ class MemoryLimit(BadInput):
 
 
 def available_bytes() -> int:
-    """Memory the kernel can hand out now: Linux's MemAvailable, else all physical memory."""
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024  # reported in kB
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    """Bytes of memory the system can hand out now without swapping (on Linux, MemAvailable)."""
+    return psutil.virtual_memory().available
 
 
 def check_side(size: object, key: str = "size") -> int:
@@ -62,9 +52,8 @@ def check_side(size: object, key: str = "size") -> int:
 def check_render(brush: Brush, strokes: Tensor, height: int, width: int, suffix: str = ".png", key: str = "size",
                  frames: int = 0) -> None:
     """Raise :class:`MemoryLimit` if strokes (N, d) written as a ``height``×``width`` ``suffix`` file
-    (.png, .gif with ``frames`` frames, .svg) will not fit in memory. An SVG holds no pixels, but
-    for a brush whose paint has no vector form (``svg_painted``): then it is drawn as a PNG is, and
-    every stroke's paint is kept as an image until it is encoded."""
+    (.png, .gif with ``frames`` frames, .svg) will not fit in memory. An SVG holds no pixels, except of
+    a brush whose paint has no vector form (``svg_painted``), each stroke's kept as an image till encoded."""
     if suffix == ".svg" and not brush.svg_painted:
         return  # its elements are text, whatever the size
     cover = stroke_cover(brush, strokes, height, width)
@@ -83,10 +72,9 @@ def stroke_cover(brush: Brush, strokes: Tensor, height: int, width: int) -> floa
 
 def check_canvas(height: int, width: int, key: str, cover: float = TYPICAL_COVER, frames: int = 0,
                  pixel_bytes: float = CANVAS_BYTES, noun: str = "render") -> None:
-    """Raise :class:`MemoryLimit` if a ``height``×``width`` render will not fit in memory.
+    """Raise :class:`MemoryLimit` if a ``height``×``width`` render (pixels) will not fit in memory.
 
     Args:
-        height, width: the render in pixels.
         key: the option that set its long side (``size``, ``render_size``), named in the message.
         cover: canvases covered by the largest chunk of strokes (:func:`stroke_cover`); the default
             is a typical painting's, for checks made before the strokes exist.

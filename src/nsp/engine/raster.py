@@ -56,8 +56,7 @@ class Tiles:
 
 
 def in_layers(tile: Tensor) -> tuple[Tensor, list[int]]:
-    """The order (P,) that sorts pairs, given in stroke order, into layers (see :class:`Tiles`),
-    and the layers' sizes."""
+    """The order (P,) sorting pairs, given in stroke order, into layers (:class:`Tiles`), and the layers' sizes."""
     by_tile = torch.argsort(tile, stable=True)  # stable: each tile's strokes stay in order
     tile_sorted = tile[by_tile]
     rank = torch.arange(len(tile), device=tile.device) - torch.searchsorted(tile_sorted, tile_sorted)
@@ -95,9 +94,8 @@ def in_box(box: Tensor, row: Tensor, col: Tensor, tile: int, margin: float) -> T
     return ((col >= lo[..., 0]) & (col <= hi[..., 2])) & ((row >= lo[..., 1]) & (row <= hi[..., 3]))  # one full-size &
 
 
-def subtiles(
-    b: Tensor, t: Tensor, box: Tensor, height: int, width: int, coarse: int, fine: int, margin: float
-) -> tuple[Tensor, Tensor]:
+def subtiles(b: Tensor, t: Tensor, box: Tensor, height: int, width: int, coarse: int, fine: int,
+             margin: float) -> tuple[Tensor, Tensor]:
     """The (stroke, tile) pairs of the ``fine`` tiles inside each ``coarse`` tile t that meet the
     stroke's box (B, 4) grown by ``margin`` px: (≤ P·k²,) each, k = coarse / fine."""
     k = coarse // fine
@@ -105,32 +103,20 @@ def subtiles(
     offset = torch.arange(k, device=t.device)
     row = (torch.div(t, cols, rounding_mode="floor") * k)[:, None, None] + offset[None, :, None]  # (P, k, 1)
     col = (t % cols * k)[:, None, None] + offset[None, None, :]  # (P, 1, k)
-    inside = (row < fine_rows) & (col < fine_cols) & in_box(box[b][:, None, None], row, col, fine, margin)
-    inside = inside.flatten(1)
+    inside = ((row < fine_rows) & (col < fine_cols) & in_box(box[b][:, None, None], row, col, fine, margin)).flatten(1)
     return b[:, None].expand_as(inside)[inside], (row * fine_cols + col).flatten(1)[inside]
 
 
-def rasterize(
-    brush: Brush,
-    x: Tensor,
-    height: int,
-    width: int,
-    *,
-    softness: float | None = None,
-    tile: int = 8,
-    compile: bool | None = False,
-    first: int = 0,
-) -> Tiles:
+def rasterize(brush: Brush, x: Tensor, height: int, width: int, *, softness: float | None = None, tile: int = 8,
+              compile: bool | None = False, first: int = 0) -> Tiles:
     """Evaluate strokes ``x`` (B, d), numbers ``first``, …, ``first`` + B − 1 of their painting,
-    on the tiles of a ``height``×``width`` canvas they touch.
+    on the tiles of a ``height``×``width`` canvas they touch: culled by each stroke's bounding box,
+    then by its distance bound at tile centres, before ``brush.paint`` shades their pixels.
 
-    Tiles are culled twice — each stroke's bounding box, then its distance bound at tile centres —
-    before ``brush.paint`` shades their pixels. ``compile`` culls and shades them by the brush's
-    compiled kernels (:func:`nsp.engine.fused.fused`), several times faster: True compiles those
-    this machine lacks first (once a machine); None (auto) uses those it has and draws eagerly where
-    it has none (:func:`nsp.engine.fused.choose`); False never. Where one kernel serves every canvas
-    of this one's detail (:meth:`~nsp.brushes.Brush.sized`: all but a user's texture), it culls
-    eagerly and shades by that kernel, differentiably (:class:`AnySizeShade`).
+    ``compile`` (as :func:`render`'s) culls and shades them by the brush's compiled kernels
+    (:func:`nsp.engine.fused.fused`); where one kernel serves every canvas of this one's detail
+    (:meth:`~nsp.brushes.Brush.sized`), it culls eagerly and shades by it, differentiably
+    (:class:`AnySizeShade`).
     """
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
     build = compile is True  # auto compiles nothing
@@ -157,10 +143,8 @@ def rasterize(
 
     # x.index_select, not x[b]: its gradient sums a stroke's pairs in one order (x[b]'s, with 2 threads, in any).
     dx, dy = tile_offsets(tile, x)
-    if brush.varies(width):
-        key = stroke_keys(brush.seed, torch.arange(first, first + len(x), device=x.device))[b]
-    else:
-        key = t  # an int64 a pair, unread
+    varies = brush.varies(width)  # where it does not, key is t: an int64 a pair, unread
+    key = stroke_keys(brush.seed, torch.arange(first, first + len(x), device=x.device))[b] if varies else t
     xs = x.index_select(0, b)
     shade = eager
     if sized is not None:
@@ -172,9 +156,8 @@ def rasterize(
     elif compile and prepare(shade_tiles, brush, (xs.detach(), t, key), (dx, dy), build=build, height=height,
                              width=width, tile=tile, softness=softness):
         shade = kernel
-    # An eager pass shades at most PASS_PIXELS pixels, so its temporaries stay small enough to be
-    # recycled by the allocator instead of page-faulted in afresh by every op; a compiled kernel
-    # keeps none, so it shades every pair at once (no copy to join the passes).
+    # An eager pass shades at most PASS_PIXELS pixels, so the allocator recycles its temporaries instead of the
+    # system page-faulting them in for every op; a compiled kernel keeps none: it shades every pair at once.
     step = max(1, len(b) if shade is not eager else PASS_PIXELS // tile**2)
     passes = [shade(shade_tiles, brush, (xp, tp, kp), (dx, dy), height=height, width=width, tile=tile, softness=softness)
               for xp, tp, kp in zip(xs.split(step), t.split(step), key.split(step))]
@@ -213,18 +196,6 @@ def pixel_lines(stroke: Tensor, tile: Tensor, channels: int, side: int, rows: in
     return lines[:, None] + torch.arange(channels, device=stroke.device)[:, None] * plane
 
 
-def write_tiles(segments: Tensor, stroke: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, rows: int, cols: int) -> None:
-    """Copy sparse pairs (as in :class:`Tiles`) into a dense image (B, 4, rows·t, cols·t), in place.
-
-    ``segments`` is the image seen as rows of t floats, (B·4·rows·t·cols, t), so each pair's pixel
-    rows are copied straight to their places.
-    """
-    side = segments.shape[1]
-    lines = pixel_lines(stroke, tile, 4, side, rows, cols)  # (P, 4, t)
-    segments.index_copy_(0, lines[:, :3].flatten(), fg.reshape(-1, side))
-    segments.index_copy_(0, lines[:, 3].flatten(), alpha.reshape(-1, side))
-
-
 def dense(values: Tensor, stroke: Tensor, tile: Tensor, strokes: int, rows: int, cols: int) -> Tensor:
     """Sparse pairs' pixels ``values`` (P, C, t²) as a new dense image (strokes, C, rows·t, cols·t),
     out of place: its gradient is the pairs' pixels of the image's, where an in-place copy into
@@ -235,28 +206,18 @@ def dense(values: Tensor, stroke: Tensor, tile: Tensor, strokes: int, rows: int,
     return image.view(strokes, channels, rows * side, cols * side)
 
 
-def render(
-    brush: Brush,
-    x: Tensor,
-    height: int,
-    width: int | None = None,
-    *,
-    softness: float | None = None,
-    tile: int = 8,
-    compile: bool | None = False,
-    out: Tensor | None = None,
-) -> tuple[Tensor, Tensor]:
+def render(brush: Brush, x: Tensor, height: int, width: int | None = None, *, softness: float | None = None,
+           tile: int = 8, compile: bool | None = False, out: Tensor | None = None) -> tuple[Tensor, Tensor]:
     """Render strokes on their own, each on an empty canvas.
 
     Args:
-        brush: the brush.
         x: (B, d) stroke parameters in [0, 1].
         height, width: canvas size in pixels (width defaults to height).
         softness: ``None`` for the antialiased engine; a width in pixels for the soft,
             differentiable mode (the painter's ``analytic`` renderer).
         tile: tile side in pixels.
         compile: shade the pixels through the compiled path: True, compiling its kernels first where
-            this machine has none; None, where it has them; False, never (see :func:`rasterize`).
+            this machine has none; None (auto), where it has them (:func:`nsp.engine.fused.choose`); False, never.
         out: optional (B, 4, H, W) tensor to render into, reused across calls: a fresh tensor of
             tens of megabytes costs the operating system's page faults on every call.
 
@@ -267,12 +228,14 @@ def render(
     tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile)
     rows, cols, n = tiles.rows, tiles.cols, len(x)
     if out is None and (tiles.fg.requires_grad or tiles.alpha.requires_grad):  # differentiated: the soft mode
-        fg, alpha = (dense(v, tiles.stroke, tiles.tile, n, rows, cols)[..., :height, :width]
+        return tuple(dense(v, tiles.stroke, tiles.tile, n, rows, cols)[..., :height, :width]
                      for v in (tiles.fg, tiles.alpha[:, None]))
-        return fg, alpha
     whole = rows * tile == height and cols * tile == width
     image = clear(out) if whole and out is not None else x.new_zeros(n, 4, rows * tile, cols * tile)
-    write_tiles(image.view(-1, tile), tiles.stroke, tiles.tile, tiles.fg, tiles.alpha, rows, cols)
+    segments = image.view(-1, tile)  # rows of t floats: each pair's pixel rows are copied straight to their places
+    lines = pixel_lines(tiles.stroke, tiles.tile, 4, tile, rows, cols)  # (P, 4, t)
+    segments.index_copy_(0, lines[:, :3].flatten(), tiles.fg.reshape(-1, tile))
+    segments.index_copy_(0, lines[:, 3].flatten(), tiles.alpha.reshape(-1, tile))
     if out is not None and not whole:
         out.copy_(image[..., :height, :width])
     elif out is None:
@@ -281,12 +244,8 @@ def render(
 
 
 def clear(image: Tensor) -> Tensor:
-    """Zero ``image`` in place and return it.
-
-    A contiguous CPU tensor goes through C's ``memset``, whose streaming stores clear a buffer of
-    tens of megabytes about twice as fast as ``Tensor.zero_`` on this machine, and leave the caches
-    to the work around it.
-    """
+    """Zero ``image`` in place and return it: a contiguous CPU tensor by C's ``memset``, whose streaming
+    stores clear tens of megabytes faster than ``Tensor.zero_`` and leave the caches to the work around it."""
     if image.device.type == "cpu" and image.is_contiguous() and not image.requires_grad:
         ctypes.memset(image.data_ptr(), 0, image.numel() * image.element_size())
         return image
@@ -294,16 +253,10 @@ def clear(image: Tensor) -> Tensor:
 
 
 def composite(fg: Tensor, alpha: Tensor, canvas: Tensor) -> Tensor:
-    """Soft blending h_i = α_i·s_i + (1 − α_i)·h_{i−1} over an ordered stroke list.
-
-    Args:
-        fg: (..., N, 3, H, W) stroke foregrounds s_i, first stroke painted first.
-        alpha: (..., N, 1, H, W).
-        canvas: (..., 3, H, W) the background h_0 (it may broadcast against fg's leading dims).
-
-    Returns:
-        (..., 3, H, W): h_N. Differentiable in all three (:class:`Blend`).
-    """
+    """Soft blending h_i = α_i·s_i + (1 − α_i)·h_{i−1} over an ordered stroke list: foregrounds s_i
+    ``fg`` (..., N, 3, H, W), first stroke painted first, and ``alpha`` (..., N, 1, H, W) over the
+    background h_0 ``canvas`` (..., 3, H, W; it may broadcast against fg's leading dims) -> h_N
+    (..., 3, H, W), differentiable in all three (:class:`Blend`)."""
     return Blend.apply(fg, alpha, canvas)
 
 
@@ -334,26 +287,15 @@ class Blend(torch.autograd.Function):
             torch.mul(grad, a, out=grad_fg[..., i, :, :, :])
             torch.sum(grad * (fg[..., i, :, :, :] - before[i]), -3, keepdim=True, out=grad_alpha[..., i, :, :, :])
             grad = grad * (1 - a)
-        if not ctx.needs_input_grad[2]:
-            return grad_fg, grad_alpha, None
-        return grad_fg, grad_alpha, grad.sum_to_size(canvas.shape)
+        return grad_fg, grad_alpha, grad.sum_to_size(canvas.shape) if ctx.needs_input_grad[2] else None
 
 
-def composite_tiles(tiles: Tiles, canvas: Tensor) -> Tensor:
-    """Blend sparse strokes onto a tiled canvas (rows·cols, 3, tile²), in stroke order, in place
-    (autograd follows: no op saves the canvas itself); returns it.
-
-    The loop runs over the layers of :class:`Tiles` (the deepest tile's stroke count), not over
-    strokes; a layer is one gather, one lerp and one scatter.
-    """
-    return _blend_layers(canvas, tiles.tile, tiles.fg, tiles.alpha, tiles.layers)
-
-
-def _blend_layers(canvas: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int],
-                  before: list | None = None) -> Tensor:
-    """Blend pairs sorted in layers of ``sizes`` (fg (P, 3, n), alpha (P, n), on tiles ``tile`` (P,))
-    onto the tiled ``canvas`` (T, 3, n) in place, a layer at a time; returns it. ``before``, if given,
-    gets each layer's tiles as they were under it."""
+def composite_tiles(canvas: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int],
+                    before: list | None = None) -> Tensor:
+    """Blend sparse strokes, pairs sorted in layers of ``sizes`` as in :class:`Tiles` (fg (P, 3, n),
+    alpha (P, n), on tiles ``tile`` (P,)), onto the tiled ``canvas`` (T, 3, n) in stroke order, in place
+    (autograd follows: no op saves the canvas itself), a layer at a time, not a stroke; returns it.
+    ``before``, if given, gets each layer's tiles as they were under it."""
     for t, f, a in _layers(tile, fg, alpha, sizes):
         under = canvas.index_select(0, t)
         if before is not None:
@@ -367,11 +309,10 @@ def _layers(tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int]):
     return zip(tile.split(sizes), fg.split(sizes), alpha[:, None].split(sizes))
 
 
-def _block_tiles(brush: Brush, x: Tensor, block: Tensor, blocks: int, size: int, softness: float, tile: int,
+def _block_tiles(brush: Brush, x: Tensor, block: Tensor, size: int, softness: float, tile: int,
                  compile: bool | None) -> tuple[Tiles, Tensor, int]:
-    """Strokes x (N, d) shaded in the soft mode on the tiles of their blocks (``block`` (N,) of
-    ``blocks`` blocks of ``size`` px): their :class:`Tiles`, each pair's tile among all the blocks'
-    (P,), and the tiles a block."""
+    """Strokes x (N, d) shaded in the soft mode on the tiles of their blocks (``block`` (N,), of
+    ``size`` px): their :class:`Tiles`, each pair's tile among all the blocks' (P,), and the tiles a block."""
     tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, compile=compile)
     per_block = tiles.rows * tiles.cols
     return tiles, block[tiles.stroke] * per_block + tiles.tile, per_block
@@ -381,14 +322,10 @@ def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, s
                      compile: bool | None = False) -> Tensor:
     """Strokes x (N, d), in painting order, each painted in the soft mode over its block's
     background: ``block`` (N,) indexes ``under`` (B, 3, s, s); returns the blocks (B, 3, s, s),
-    differentiable in x and under.
-
-    What :func:`render` and :func:`composite` give together, sparsely: only the tiles each stroke
-    touches are shaded and blended (:class:`TileBlend`), where those two make a full image of each
-    stroke and blend every pixel of it.
-    """
+    differentiable in x and under. What :func:`render` and :func:`composite` give together, but
+    only the tiles each stroke touches are shaded and blended (:class:`TileBlend`)."""
     blocks, _, size, _ = under.shape
-    tiles, where, per_block = _block_tiles(brush, x, block, blocks, size, softness, tile, compile)
+    tiles, where, per_block = _block_tiles(brush, x, block, size, softness, tile, compile)
     by_stroke = torch.argsort(tiles.stroke, stable=True)  # rasterize's pairs are in its layers; blending needs stroke order
     where = where[by_stroke]
     order, layers = in_layers(where)
@@ -405,7 +342,7 @@ def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Te
     goal (B, 3, s, s) and weights (B, 1, s, s). Only the tiles a stroke touches are scored, where
     :func:`render` would make a full image of each."""
     blocks, _, size, _ = canvas.shape
-    tiles, where, per_block = _block_tiles(brush, x, block, blocks, size, softness, tile, compile)
+    tiles, where, per_block = _block_tiles(brush, x, block, size, softness, tile, compile)
     under, aim, weight = (to_tiles(image, tile).reshape(blocks * per_block, -1, tile * tile).index_select(0, where)
                           for image in (canvas, goal, weights))
     painted = torch.lerp(under, tiles.fg, tiles.alpha[:, None])
@@ -421,7 +358,7 @@ class TileBlend(torch.autograd.Function):
     @staticmethod
     def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor, tile: Tensor, layers: list[int]) -> Tensor:
         before = []  # each layer's tiles as they were under it (a pair's pixels: as small as fg)
-        out = _blend_layers(canvas.clone(), tile, fg, alpha, layers, before)
+        out = composite_tiles(canvas.clone(), tile, fg, alpha, layers, before)
         ctx.save_for_backward(fg, alpha, tile, *before)
         ctx.layers = layers
         return out

@@ -1,13 +1,11 @@
 """The transportation-loss studies (paper §3.4, §4.3), as painting experiments, L1 vs L1 + OT:
+:func:`push` (Figs. 4, 5), a stroke that starts beside its target, where a pixel loss gives its position
+no gradient and the transport cost pulls it over; :func:`digits` (Fig. 8), scikit-learn's 8×8 digits
+upsampled, each painted with a few marker-pen strokes from the same random start.
 
-- :func:`push` (Figs. 4, 5): a stroke that starts with no overlap with its target stroke. A pixel
-  loss gives its position no gradient there; the transport cost pulls it over.
-- :func:`digits` (Fig. 8): scikit-learn's 8×8 digits, upsampled, each painted with a few marker-pen
-  strokes from the same random start.
-
-Each is ``task(cfg, **arguments) -> metrics`` on ``nsp.paint``'s config: ``brush``, ``canvas``,
-``work_size`` (the square canvas side), ``renderer``, ``loss``, ``optimizer``, ``seed``, ``strokes``,
-``output_dir``; ``conf/paint/experiment/ot_*.yaml`` choose the task and its arguments.
+Each is ``task(cfg, **arguments) -> metrics`` on ``nsp.paint``'s config (``brush``, ``work_size`` the
+square canvas side, ``renderer``, ``loss``, ``optimizer``, ``seed``, ``strokes``, ``output_dir``);
+``conf/paint/experiment/ot_*.yaml`` choose the task and its arguments.
 """
 from __future__ import annotations
 
@@ -18,7 +16,7 @@ from pathlib import Path
 import torch
 import torch.nn.functional as F
 from hydra.utils import instantiate
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
 from torchvision.utils import make_grid
@@ -43,15 +41,14 @@ def setup(cfg: DictConfig) -> tuple[Brush, object, PaintLoss, Tensor, torch.devi
     the device of ``cfg``. The seeded strokes and targets are drawn on the CPU, then moved there."""
     brush, device = get_brush(cfg.brush.name, cfg.brush.texture), resolve_device(cfg.device)
     background = parse_color(cfg.background)
-    loss = PaintLoss.from_config(cfg.loss, background)
-    return brush, build_renderer(cfg.renderer, brush, device), loss, torch.tensor(background), device
+    loss = PaintLoss.from_config(OmegaConf.to_object(cfg.loss), background)
+    return brush, build_renderer(OmegaConf.to_object(cfg.renderer), brush, device), loss, torch.tensor(background), device
 
 
 def centre(alpha: Tensor) -> Tensor:
     """(B, 1, H, W) coverage -> (B, 2) its centre of mass (x, y), in canvas units (pixel p at p/(W−1))."""
     height, width = alpha.shape[-2:]
-    ys = torch.linspace(0, 1, height)[:, None]
-    xs = torch.linspace(0, 1, width)[None, :]
+    ys, xs = torch.linspace(0, 1, height)[:, None], torch.linspace(0, 1, width)[None, :]
     mass = alpha[:, 0].sum((-2, -1)).clamp_min(1e-8)  # a vanished stroke sits at (0, 0) rather than NaN
     return torch.stack([(alpha[:, 0] * xs).sum((-2, -1)) / mass, (alpha[:, 0] * ys).sum((-2, -1)) / mass], -1)
 
@@ -72,25 +69,19 @@ def shift(brush: Brush, x: Tensor, offset: Tensor) -> Tensor:
 
 def push_pairs(brush: Brush, trials: int, side: int, gap: float, size: tuple[float, float], background: Tensor,
                generator: torch.Generator) -> tuple[Tensor, Tensor]:
-    """``trials`` (target, start) stroke pairs (trials, d) each: the start is the target moved ``gap``
-    canvas widths in a random direction, inside the canvas and not overlapping it.
-
-    Sizes lie in ``size`` (fractions of the canvas); colours lie at least halfway from the canvas
-    colour ``background`` (3,) to its opposite, so every stroke carries transport mass; alpha is 1.
-    """
-    colors = [i for i, kind in enumerate(brush.kinds) if kind == "color"]
+    """``trials`` (target, start) stroke pairs (trials, d) each, the start the target moved ``gap`` canvas
+    widths in a random direction, inside the canvas and not overlapping it. Sizes lie in ``size`` (fractions
+    of the canvas), alpha is 1, and colours lie at least halfway from the canvas colour ``background`` (3,)
+    to its opposite, so every stroke carries transport mass."""
+    sizes = [i for i, kind in enumerate(brush.kinds) if kind == "size"]
     positions = [i for i, kind in enumerate(brush.kinds) if kind in ("x", "y")]
+    colors, channel = list(brush.color), background.repeat(len(brush.color) // 3)  # each colour parameter's channel
     targets, starts = [], []
     while len(targets) < trials:
         x = brush.sample(64, generator=generator)
-        for index, kind in enumerate(brush.kinds):
-            if kind == "size":
-                x[:, index] = size[0] + (size[1] - size[0]) * x[:, index]
-            elif kind == "color":
-                channel = background[colors.index(index) % 3]
-                x[:, index] = channel + (1 - 2 * channel) * (0.5 + 0.5 * x[:, index])
-            elif kind == "alpha":
-                x[:, index] = 1.0
+        x[:, sizes] = size[0] + (size[1] - size[0]) * x[:, sizes]
+        x[:, colors] = channel + (1 - 2 * channel) * (0.5 + 0.5 * x[:, colors])
+        x[:, [i for i, kind in enumerate(brush.kinds) if kind == "alpha"]] = 1.0
         angle = 2 * torch.pi * torch.rand(64, generator=generator)
         start = shift(brush, x, gap * torch.stack([angle.cos(), angle.sin()], -1))
         inside = ((start[:, positions] > 0.05) & (start[:, positions] < 0.95)).all(-1)
@@ -103,11 +94,9 @@ def push_pairs(brush: Brush, trials: int, side: int, gap: float, size: tuple[flo
 
 def optimize(out: Path, steps: int, x: Tensor, loss: PaintLoss, optimizer, draw, target: Tensor,
              watch=None, every: int = 10) -> list[Tensor]:
-    """Optimize strokes x (requires grad) for ``steps`` steps so ``draw(x)`` (B, 3, s, s) matches target.
-
-    Logs the loss terms per step to TensorBoard under ``out`` and ``watch(x) -> {name: value}`` every
-    ``every`` steps; returns the canvases at steps 0, ¼, ½, ¾ and the end (for the figures).
-    """
+    """Optimize strokes x (requires grad) for ``steps`` steps so ``draw(x)`` (B, 3, s, s) matches target,
+    logging to TensorBoard under ``out`` the loss terms per step and ``watch(x) -> {name: value}`` every
+    ``every`` steps; returns the canvases at steps 0, ¼, ½, ¾ and the end (for the figures)."""
     marks = {round(steps * f) for f in (0, 0.25, 0.5, 0.75, 1)}
     frames, counter = [], itertools.count()
     with SummaryWriter(out) as writer:  # events in the run dir: TensorBoard names the run after it
@@ -135,12 +124,10 @@ def optimize(out: Path, steps: int, x: Tensor, loss: PaintLoss, optimizer, draw,
 def push(cfg: DictConfig, trials: int = 8, steps: int = 150, gap: float = 0.45,
          size: tuple[float, float] = (0.15, 0.25)) -> dict:
     """Push strokes onto targets they start beside (paper Figs. 4, 5); ``trials`` independent pairs at once.
-
-    Writes ``push.png`` (a row per trial, four at most: target, then the canvas at steps 0, ¼, ½, ¾,
-    end), TensorBoard curves (``loss/*``, ``position_error``) and ``metrics.json``:
-    ``position_error`` (mean final distance of the stroke's centre from its target's, canvas widths),
-    ``position_error_start``, ``converged`` (fraction ending within 0.05), ``psnr``, ``seconds``.
-    """
+    Writes ``push.png`` (a row per trial, four at most: target, then the canvas at steps 0, ¼, ½, ¾, end),
+    TensorBoard curves (``loss/*``, ``position_error``) and ``metrics.json``: ``position_error`` (mean final
+    distance of the stroke's centre from its target's, canvas widths), ``position_error_start``,
+    ``converged`` (fraction ending within 0.05), ``psnr``, ``seconds``."""
     start_time = time.perf_counter()
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -150,28 +137,24 @@ def push(cfg: DictConfig, trials: int = 8, steps: int = 150, gap: float = 0.45,
     goal, start = push_pairs(brush, trials, side, gap, tuple(size), background, generator)
     goal, start, background = goal.to(device), start.to(device), background.to(device)
     blank = background[:, None, None].expand(trials, 3, side, side)
-    fg, alpha = render(brush, goal, side)
-    target = alpha * fg + (1 - alpha) * blank  # drawn by the engine, as a photo would be
 
-    def draw(x: Tensor) -> Tensor:
-        fg, alpha = renderer(x, side)
+    def over(fg: Tensor, alpha: Tensor) -> Tensor:
         return alpha * fg + (1 - alpha) * blank
 
+    target = over(*render(brush, goal, side))  # drawn by the engine, as a photo would be
     x = start.clone().requires_grad_(True)
-    frames = optimize(out, steps, x, loss, instantiate(cfg.optimizer)([x]), draw, target,
+    frames = optimize(out, steps, x, loss, instantiate(cfg.optimizer)([x]), lambda x: over(*renderer(x, side)), target,
                       watch=lambda x: {"position_error": float(position_error(brush, x, goal, side).mean())})
     shown = min(trials, 4)
     rows = torch.stack([target[:shown], *(frame[:shown] for frame in frames)], 1).flatten(0, 1)
     write_png(out / "push.png", make_grid(rows.clamp(0, 1), nrow=len(frames) + 1, padding=2, pad_value=0.5))
 
-    final = x.detach()
-    error = position_error(brush, final, goal, side)
-    fg, alpha = render(brush, final, side)
+    error = position_error(brush, x.detach(), goal, side)
     metrics = {
         "position_error": round(float(error.mean()), 4),
         "position_error_start": round(float(position_error(brush, start, goal, side).mean()), 4),
         "converged": round(float((error < ON_TARGET).float().mean()), 3),
-        "psnr": round(float(psnr(alpha * fg + (1 - alpha) * blank, target).mean()), 3),
+        "psnr": round(float(psnr(over(*render(brush, x.detach(), side)), target).mean()), 3),
         "seconds": round(time.perf_counter() - start_time, 2),
         "strokes": trials,
     }
@@ -192,11 +175,9 @@ def digit_targets(count: int, side: int, background: Tensor) -> tuple[Tensor, Te
 
 def off_ink_starts(brush: Brush, mask: Tensor, k: int, length: float, size: tuple[float, float], gap: float,
                    generator: torch.Generator) -> Tensor:
-    """``k`` short, thin strokes per digit (count·k, d), each centred at least ``gap`` canvas widths
-    (plus its own reach) from any ink of its digit, so that none overlaps its target at the start.
-
-    mask: (count, 1, s, s) ink in [0, 1]. Bézier strokes: P0 and P2 ``length`` apart, P1 halfway.
-    """
+    """``k`` short, thin Bézier strokes per digit (count·k, d), P0 and P2 ``length`` apart, P1 halfway, each
+    centred at least ``gap`` canvas widths (plus its reach) from any ink of its digit in ``mask``
+    (count, 1, s, s) in [0, 1], so that none overlaps its target at the start."""
     if brush.kinds[:6] != ("x", "y") * 3:
         raise BadInput(f"ot_digits draws Bézier strokes; brush={brush.name} is not one (use markerpen or watercolor)")
     count, side = mask.shape[0], mask.shape[-1]
@@ -220,15 +201,13 @@ def off_ink_starts(brush: Brush, mask: Tensor, k: int, length: float, size: tupl
 
 def digits(cfg: DictConfig, count: int = 50, steps: int = 300, length: float = 0.08,
            init_size: tuple[float, float] = (0.1, 0.2), gap: float = 0.05) -> dict:
-    """Paint ``count`` digits with ``cfg.strokes`` marker-pen strokes each (paper Fig. 8), from strokes
-    that start short, thin and away from the digit's ink (``off_ink_starts``): the case in which a
-    pixel loss gives a stroke no gradient towards its target.
+    """Paint ``count`` digits with ``cfg.strokes`` marker-pen strokes each (paper Fig. 8), from the same
+    seeded strokes whatever the loss: short, thin, opaque, in the ink's colour and away from the digit's
+    ink (``off_ink_starts``), where a pixel loss gives them no gradient; all parameters are optimized.
 
-    Every digit starts from the same seeded strokes whatever the loss, in the ink's colour, opaque;
-    all parameters are then optimized jointly. Writes ``digits.png`` (for the first ten digits, rows:
-    target, start, painting by the engine), ``digits.json`` (per-digit PSNR and IoU), TensorBoard curves
-    and ``metrics.json``: ``psnr`` and ``iou`` (mean over digits; IoU of the painted and the target ink,
-    each thresholded at half ink) with their standard deviations ``psnr_std``, ``iou_std``, the start's
+    Writes ``digits.png`` (first ten digits; rows: target, start, painting by the engine), ``digits.json``
+    (per-digit PSNR and IoU), TensorBoard curves and ``metrics.json``: ``psnr``, ``iou`` (means over digits;
+    IoU of the painted and target ink, each thresholded at half ink), ``psnr_std``, ``iou_std``, the start's
     ``iou_start`` (0: no overlap), ``seconds``, ``strokes``.
     """
     start_time = time.perf_counter()
@@ -240,7 +219,7 @@ def digits(cfg: DictConfig, count: int = 50, steps: int = 300, length: float = 0
     k = cfg.strokes
     x0 = off_ink_starts(brush, mask, k, length, tuple(init_size), gap, torch.Generator().manual_seed(cfg.seed))
     x0[:, [i for i, kind in enumerate(brush.kinds) if kind == "alpha"]] = 1.0
-    ink = [i for i, kind in enumerate(brush.kinds) if kind == "color"]
+    ink = list(brush.color)
     x0[:, ink] = (1 - background).repeat(len(ink) // 3)
     mask, target, x0, background = mask.to(device), target.to(device), x0.to(device), background.to(device)
     blank = background[:, None, None].expand(count, 3, side, side)

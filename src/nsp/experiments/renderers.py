@@ -1,11 +1,7 @@
 """Does a better renderer paint better? (paper §3.2, §4.2). A painting experiment: one photo painted
-with one renderer in the optimization loop, a checkpoint of a finished training sweep (each
-renderer × brush × seed of ``experiment=renderer_comparison`` or ``renderer_ablation``) or the
-analytic renderer (the soft vector engine, nothing trained), scored as the vector engine draws its
-strokes (the true brush): PSNR and SSIM at a 256-px long side, and the painting's seconds.
-
-``conf/paint/experiment/renderer_painting.yaml`` sweeps :func:`paint_with` over
-:func:`nsp.config.trained_renderers` of the training sweep, the photos and the stroke budgets.
+through one renderer, a checkpoint of a finished training sweep or the analytic one, and scored as
+the vector engine draws its strokes. ``conf/paint/experiment/renderer_painting.yaml`` sweeps
+:func:`paint_with` over :func:`nsp.config.trained_renderers`, the photos and the stroke budgets.
 """
 from __future__ import annotations
 
@@ -18,13 +14,12 @@ from nsp.errors import BadInput
 
 
 def paint_with(cfg: DictConfig, renderer: str, sweep: str) -> dict:
-    """Paint ``cfg.image`` with ``cfg.strokes`` strokes through ``renderer`` (a checkpoint of the
-    training sweep ``sweep``, as :func:`nsp.config.trained_renderers` lists them, or ``analytic:BRUSH``); writes
-    the painting's files into ``cfg.output_dir``. Returns its metrics (``psnr``, ``ssim``,
-    ``seconds``, …) with the renderer's ``renderer`` name, ``brush``, training ``seed`` and
-    ``renderer_psnr`` (its test PSNR; none for the analytic renderer)."""
+    """Paint ``cfg.image`` through ``renderer`` (a checkpoint of the training sweep ``sweep``, or
+    ``analytic:BRUSH``) into ``cfg.output_dir``; returns its metrics with the renderer's name,
+    ``brush``, training ``seed`` and ``renderer_psnr`` (its test PSNR; none for the analytic one)."""
     from nsp.files import write_json
-    from nsp.painter.run import paint
+    from nsp.painting.run import paint
+    from nsp.painting.schema import paint_settings
     from nsp.renderers.checkpoint import read_checkpoint
 
     analytic = renderer.startswith(ANALYTIC)
@@ -43,6 +38,6 @@ def paint_with(cfg: DictConfig, renderer: str, sweep: str) -> dict:
         painting.renderer.name = "analytic" if analytic else "neural"
         painting.renderer.checkpoint = None if analytic else renderer
         painting.task = None
-    metrics = paint(painting) | {"brush": brush, **trained}
+    metrics = paint(paint_settings(painting)) | {"brush": brush, **trained}
     write_json(Path(cfg.output_dir) / "metrics.json", metrics)
     return metrics

@@ -1,14 +1,10 @@
 """The style-transfer study (paper §3.5) as a painting experiment: each photo is painted once, then
-stylized toward each style image in colour mode and in full mode (or in the modes asked), and
-every result is measured (:mod:`nsp.style.measures`) against its plain painting, its photo and its
-style.
+stylized toward each style image in each mode, and every result is measured
+(:mod:`nsp.style.measures`) against its plain painting, its photo and its style.
 
-``grid(cfg, photos, styles, modes) -> metrics`` runs on ``nsp.paint``'s config: the painting's settings
-(``brush``, ``strokes``, ``work_size``, ``renderer``, ``loss``, ``schedule``, ``optimizer``, ``seed``,
-``background``) and the style's (``style.size``: the canvas of the style steps and of every
-measure; ``weight``, ``steps``, ``backbone``, ``weights``), ``output_dir``;
-``conf/paint/experiment/style_grid.yaml`` chooses the images, ``style_heldout.yaml`` the held-out
-pairs of colour mode (docs/style.md).
+``grid(cfg, photos, styles, modes) -> metrics`` runs on ``nsp.paint``'s config (``style.size`` is the
+canvas of the style steps and of every measure); ``conf/paint/experiment/style_grid.yaml`` chooses
+the images, ``style_heldout.yaml`` the held-out pairs of colour mode (docs/style.md).
 """
 from __future__ import annotations
 
@@ -27,9 +23,10 @@ from nsp.errors import BadInput
 from nsp.files import write_json
 from nsp.images import BUILTIN, load_image, resize
 from nsp.io.export import write_png
-from nsp.painter.callbacks import ProgressBar
+from nsp.painting.callbacks import ProgressBar
 from nsp.painter.painter import Painter
-from nsp.painter.run import prepare
+from nsp.painting.run import prepare
+from nsp.painting.schema import paint_settings
 from nsp.config import MODES
 from nsp.painter.stylize import stylize
 from nsp.style import StyleLoss
@@ -42,12 +39,9 @@ COLUMNS = ("color_distance", "color_distance_drop", "coherence", "luminance_ssim
 
 
 def style_image(name: str, size: int) -> Tensor:
-    """A built-in image, long side ``size``, as RGB (3, h, w) in [0, 1]: a photo of
-    ``nsp.images.BUILTIN`` or any image of ``skimage.data`` (grey ones, such as the
-    textures brick, grass and gravel, as three equal channels)."""
-    if name in BUILTIN:
-        return resize(load_image(name, max_side=size), size)
-    return resize(skimage_image(name), size)
+    """A photo of ``nsp.images.BUILTIN`` or any image of ``skimage.data`` (grey ones, such as brick and
+    gravel, as three equal channels), long side ``size``, as RGB (3, h, w) in [0, 1]."""
+    return resize(load_image(name, max_side=size) if name in BUILTIN else skimage_image(name), size)
 
 
 def skimage_image(name: str) -> Tensor:
@@ -64,8 +58,7 @@ def skimage_image(name: str) -> Tensor:
 
 
 def photo_spec(name: str, folder: Path) -> str:
-    """What ``image=`` paints ``name`` as: a built-in photo's name, or a PNG of the ``skimage.data``
-    image written into ``folder``."""
+    """What ``image=`` paints ``name`` as: a built-in photo's name, or a PNG of it written into ``folder``."""
     if name in BUILTIN:
         return name
     folder.mkdir(parents=True, exist_ok=True)
@@ -93,18 +86,14 @@ def meets_targets(row: dict) -> bool:
 def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flower"),
          styles: tuple[str, ...] = ("gravel", "brick", "rocket"), modes: tuple[str, ...] = MODES,
          color: dict | None = None) -> dict:
-    """Paint every photo, stylize it toward every other image of ``styles`` in each of ``modes``,
-    measure all. Images are names of :func:`style_image`. ``color``: colour mode's settings other
-    than the defaults (:class:`~nsp.style.recolor.ColorSettings` fields), to compare them on the
-    development pairs.
+    """Paint every photo, stylize it toward every other image of ``styles`` (names of
+    :func:`style_image`) in each of ``modes``, measure all. ``color``: colour mode's settings other
+    than the defaults (:class:`~nsp.style.recolor.ColorSettings` fields).
 
-    Writes ``pairs.json`` (per photo, style and mode — ``plain`` and ``modes`` — the measures,
-    with ``color_distance_drop`` = 1 − distance / the plain painting's and ``ssim_ratio`` =
-    luminance SSIM / the plain painting's), ``table.md``, ``grid.png`` (a row
-    per pair: photo, style, plain, then each of ``modes``) and ``metrics.json``: colour mode's worst
-    case of each target measure, how many pairs meet all three targets, the mean drop, the mean
-    texture distance of the plain paintings and of each mode's, and ``seconds``. A photo is not
-    stylized toward itself.
+    Writes ``pairs.json`` (per photo, style and mode, ``plain`` too, the measures, with
+    ``color_distance_drop`` = 1 − distance / the plain painting's and ``ssim_ratio`` = luminance
+    SSIM / the plain painting's), ``table.md``, ``grid.png`` (a row per pair: photo, style, plain,
+    then each of ``modes``) and ``metrics.json`` (:func:`summary`, and ``seconds``).
     """
     if unknown := set(modes) - set(MODES):
         raise BadInput(f"task.modes: {', '.join(sorted(unknown))} unknown; expected some of {', '.join(MODES)}")
@@ -113,17 +102,14 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
     except TypeError as error:
         raise BadInput(f"task.color={color}: {error}; expected fields of nsp.style.recolor.ColorSettings") from None
     start = time.perf_counter()
-    if cfg.threads:
-        torch.set_num_threads(cfg.threads)  # as a painting does: the same numbers in a run and in a sweep
     out = Path(cfg.output_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows, tiles = [], []
-    pairs = sum(style != photo for photo in photos for style in styles)
-    with ProgressBar(pairs, cfg.progress, "pairs") as bar:
+    with ProgressBar(sum(style != photo for photo in photos for style in styles), cfg.progress, "pairs") as bar:
         for photo_name in photos:
             bar.advance(0, f"painting {photo_name}")
-            painter, photo, _, _ = prepare(OmegaConf.merge(cfg, {"image": photo_spec(photo_name, out / "photos"),
-                                                                 "style": {"image": None}}))
+            painter, photo, _, _ = prepare(paint_settings(OmegaConf.merge(
+                cfg, {"image": photo_spec(photo_name, out / "photos"), "style": {"image": None}})))
             strokes = painter.paint(resize(photo, cfg.work_size), cfg.strokes)
             photo = resize(photo, cfg.style.size)
             for style_name in (s for s in styles if s != photo_name):
@@ -134,8 +120,7 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
                 bar.advance(1, f"{photo_name} × {style_name}")
     write_json(out / "pairs.json", {"pairs": rows})
     (out / "table.md").write_text(table(rows))
-    grid_image = make_grid(torch.stack(tiles).clamp(0, 1), nrow=3 + len(modes), padding=2, pad_value=0.5)
-    write_png(out / "grid.png", grid_image)
+    write_png(out / "grid.png", make_grid(torch.stack(tiles).clamp(0, 1), nrow=3 + len(modes), padding=2, pad_value=0.5))
     metrics = summary(rows) | {"seconds": round(time.perf_counter() - start, 2), "strokes": cfg.strokes}
     write_json(out / "metrics.json", metrics)
     return metrics
@@ -143,9 +128,8 @@ def grid(cfg: DictConfig, photos: tuple[str, ...] = ("chelsea", "coffee", "flowe
 
 def pair_rows(cfg: DictConfig, painter: Painter, strokes: Tensor, photo: Tensor, style_name: str,
               modes: tuple[str, ...], settings: ColorSettings) -> tuple[dict[str, dict], list[Tensor]]:
-    """The painting ``strokes`` (N, d) of ``photo`` (3, H, W, the style canvas) by ``painter``,
-    stylized toward ``style_name`` in each of ``modes``: the measures of the plain painting and of
-    each mode's, and the images of the grid's row: photo, style, plain, then each mode's painting."""
+    """The measures of the painting ``strokes`` (N, d) of ``photo`` (3, H, W) and of it stylized toward
+    ``style_name`` in each of ``modes``, and the grid's row: photo, style, plain, then each mode's."""
     brush = painter.brush
     height, width = photo.shape[1:]
     image = style_image(style_name, cfg.style.size)

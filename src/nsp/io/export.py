@@ -11,9 +11,8 @@ from PIL import Image
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.colors import hex_color
-from nsp.colors import parse_color
 from nsp.brushes.svg import image_element
+from nsp.colors import hex_color, parse_color
 from nsp.engine.canvas import TiledCanvas, paint_canvas
 from nsp.errors import BadInput
 from nsp.files import atomic_path
@@ -33,10 +32,8 @@ def write_png(path: str | Path, image: Tensor) -> None:
         Image.fromarray(to_uint8(image)).save(temporary, compress_level=3)  # 2× faster than 6, 10 % larger
 
 
-def write_gif(
-    path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
-    frames: int | None = GIF_FRAMES, seconds: float = 4.0, compile: bool | None = None,
-) -> None:
+def write_gif(path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
+              frames: int | None = GIF_FRAMES, seconds: float = 4.0, compile: bool | None = None) -> None:
     """An animation of the strokes (N, d) appearing in order (:class:`Animation`), made at once."""
     animation = Animation(brush, len(strokes), height, width, background, frames, compile, strokes.device)
     animation.add(strokes)
@@ -44,19 +41,16 @@ def write_gif(
 
 
 class Animation:
-    """The frames of an animation of a painting's strokes appearing in order, made as the strokes
-    come: the empty canvas, then a frame at each of :func:`frame_ends` (at most ``frames`` after the
-    first, the same strokes each; None: one a stroke). :meth:`write` maps every frame to one shared
-    palette, without dithering: nothing flickers, and pixels no stroke touched stay the same bytes,
-    which keeps the file small.
+    """An animation of a painting's strokes appearing in order, its frames made as the strokes come:
+    the empty canvas, then one at each of :func:`frame_ends`. :meth:`write` maps every frame to one
+    palette, undithered: nothing flickers, and untouched pixels keep their bytes (a small file).
 
     Args:
-        brush, background: the painting's.
-        strokes: how many it has.
+        brush, background: the painting's; ``strokes``: how many it has; ``device``: where they are.
         height, width: the animation's size in pixels.
+        frames: the most frames after the first, the same strokes each; None: one a stroke.
         compile: shade on the compiled path, its kernels compiled first where missing; None: where
             this machine has them (:func:`~nsp.engine.fused.choose`); False: never.
-        device: where the strokes are.
     """
 
     def __init__(self, brush: Brush, strokes: int, height: int, width: int, background: str = "white",
@@ -75,8 +69,7 @@ class Animation:
         if not count:
             return
         stops = [end - first for end in self.ends if first < end <= first + count]  # this part's frames
-        frames = set(stops)
-        done = 0
+        frames, done = set(stops), 0
         with torch.no_grad():
             for stop in self.canvas.paint_until(self.brush, strokes, stops if stops[-1:] == [count] else stops + [count],
                                                 compile=self.compile, first=first):
@@ -112,25 +105,21 @@ def frame_ends(strokes: int, frames: int | None = GIF_FRAMES) -> list[int]:
 
 
 def gif_palette(brush: Brush, strokes: Tensor, height: int, width: int, background: str, side: int = 128) -> Image.Image:
-    """256 colours for every frame of an animation: Pillow's octree of the painting drawn small
-    (long side ``side``) a quarter, half, three quarters of the way and done, so the colours of
-    strokes later covered count too."""
+    """256 colours for every frame of an animation: Pillow's octree of the painting drawn small (long side
+    ``side``) at each quarter of its strokes, so the colours of strokes later covered count too."""
     scale = min(1.0, side / max(height, width))
     small = (max(1, round(height * scale)), max(1, round(width * scale)))
-    canvas = torch.tensor(parse_color(background), dtype=strokes.dtype, device=strokes.device)[:, None, None].expand(3, *small)
-    cuts = np.linspace(0, len(strokes), 5).round().astype(int)
-    views = []
+    cuts, canvas, views = np.linspace(0, len(strokes), 5).round().astype(int), None, []
     with torch.no_grad():
         for start, end in zip(cuts[:-1], cuts[1:]):
-            canvas = paint_canvas(brush, strokes[start:end], *small, canvas=canvas, first=int(start))
+            canvas = paint_canvas(brush, strokes[start:end], *small, background, canvas=canvas, first=int(start))
             views.append(to_uint8(canvas))
     return Image.fromarray(np.concatenate(views)).quantize(256, Image.Quantize.FASTOCTREE)
 
 
 def _touched(brush: Brush, strokes: Tensor, height: int, width: int, margin: int = 2) -> tuple[int, int, int, int]:
-    """The pixels strokes (N, d) can change on a ``height``×``width`` canvas: left, top, right,
-    bottom (exclusive) of their bounding boxes, widened by ``margin`` for the antialiased edge (the
-    engine's own culling leaves pixels farther out untouched)."""
+    """The pixels strokes (N, d) can change on a ``height``×``width`` canvas: left, top, right, bottom
+    (exclusive) of their bounding boxes, widened by ``margin`` for the antialiased edge, as the engine culls."""
     box = brush.extent(strokes.detach(), height, width)  # (N, 4) px: x_min, y_min, x_max, y_max
     left, top = (max(0, math.floor(float(box[:, i].min())) - margin) for i in (0, 1))
     right, bottom = (min(side, math.ceil(float(box[:, i].max())) + margin + 1) for i, side in ((2, width), (3, height)))
@@ -142,14 +131,11 @@ def _indexed(pixels: np.ndarray, palette: Image.Image) -> Image.Image:
     return Image.fromarray(pixels).quantize(palette=palette, dither=Image.Dither.NONE)
 
 
-def write_svg(
-    path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
-    elements: list[tuple[str, str]] | None = None,
-) -> None:
+def write_svg(path: str | Path, brush: Brush, strokes: Tensor, height: int, width: int, background: str = "white",
+              elements: list[tuple[str, str]] | None = None) -> None:
     """Each stroke as the brush's SVG elements, in painting order, on a ``height``×``width`` canvas;
     a brush whose paint has no vector form (oil's bristles) as each stroke's paint, an image.
-    ``elements``: the strokes' (definitions, element) pairs where they were made already (as a render
-    drew them: :func:`painted_elements`); None: made here."""
+    ``elements``: the strokes' (definitions, element) pairs if made already (:func:`painted_elements`)."""
     if elements is None and brush.svg_painted:
         images = []
         with torch.no_grad():
@@ -157,25 +143,18 @@ def write_svg(
         elements = painted_elements(images)
     elif elements is None:
         elements = list(brush.svg_elements(strokes.detach().cpu().double().numpy(), height, width))
-    defs, body = [d for d, _ in elements], [e for _, e in elements]
-    svg = "\n".join(
-        [
-            f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
-            f'viewBox="-0.5 -0.5 {width} {height}">',
-            "<defs>" + "".join(defs) + "</defs>",
-            f'<rect x="-0.5" y="-0.5" width="{width}" height="{height}" fill="{hex_color(parse_color(background))}"/>',
-            *body,
-            "</svg>",
-        ]
-    )
+    svg = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+           f'viewBox="-0.5 -0.5 {width} {height}">',
+           "<defs>" + "".join(d for d, _ in elements) + "</defs>",
+           f'<rect x="-0.5" y="-0.5" width="{width}" height="{height}" fill="{hex_color(parse_color(background))}"/>',
+           *(e for _, e in elements), "</svg>"]
     with atomic_path(path) as temporary:
-        temporary.write_text(svg)
+        temporary.write_text("\n".join(svg))
 
 
 def painted_elements(images: list[tuple[int, int, Tensor]], workers: int = 1) -> list[tuple[str, str]]:
-    """The SVG elements of strokes whose paint has no vector form: each stroke's
-    :func:`~nsp.engine.canvas.box_images` image (none for a stroke off the canvas), encoded on
-    ``workers`` threads (PNG compression lets go of the interpreter)."""
+    """The SVG elements of strokes whose paint has no vector form: each stroke's ``box_images`` image
+    (none off the canvas), encoded on ``workers`` threads (PNG compression lets go of the interpreter)."""
     drawn = [image for image in images if image[2].numel()]
     with ThreadPoolExecutor(workers) as pool:
         return [("", element) for element in pool.map(lambda image: image_element(*image[:2], image[2].cpu().numpy()), drawn)]

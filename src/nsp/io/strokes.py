@@ -33,23 +33,21 @@ class StrokeFileError(BadInput):
     """A stroke file that cannot be read; the message names the file and what is expected."""
 
 
+def _check(ok: bool, message: str) -> None:
+    """Raise :class:`StrokeFileError` with ``message`` unless ``ok``."""
+    if not ok:
+        raise StrokeFileError(message)
+
+
 @dataclass
 class StrokeFile:
-    """A painting: an ordered list of strokes of one brush on a plain canvas.
+    """A painting: an ordered list of strokes of one brush on a plain canvas."""
 
-    Attributes:
-        brush: the brush, its oil texture (``brush.texture=PATH``) included.
-        strokes: (N, d) parameters in [0, 1], painted first to last.
-        height, width: the canvas size the strokes were made for; only the aspect ratio matters,
-            strokes render at any size.
-        background: canvas colour, ``black``, ``white`` or ``#rrggbb``.
-    """
-
-    brush: Brush
-    strokes: Tensor
-    height: int = 512
+    brush: Brush  # its oil texture (brush.texture=PATH) included
+    strokes: Tensor  # (N, d) parameters in [0, 1], painted first to last
+    height: int = 512  # the canvas the strokes were made for: only its aspect ratio matters
     width: int = 512
-    background: str = "white"
+    background: str = "white"  # black, white or #rrggbb
 
     def size(self, long_side: int) -> tuple[int, int]:
         """(height, width) in pixels for a render whose long side is ``long_side``."""
@@ -59,20 +57,12 @@ class StrokeFile:
 
 def save_strokes(path: str | Path, painting: StrokeFile) -> None:
     """Write ``painting`` as nsp JSON; :func:`load_strokes` reads back exactly the same values."""
-    brush = painting.brush
+    brush, width, height = painting.brush, painting.width, painting.height
     data = {
-        "format": FORMAT,
-        "version": VERSION,
-        "brush": brush.name,
-        "params": list(brush.params),
-        "canvas": {
-            "width": painting.width,
-            "height": painting.height,
-            "aspect": painting.width / painting.height,
-            "background": painting.background,
-        },
-        # float() of a float32 is exact, and JSON keeps every digit of a Python float.
+        "format": FORMAT, "version": VERSION, "brush": brush.name, "params": list(brush.params),
+        "canvas": {"width": width, "height": height, "aspect": width / height, "background": painting.background},
         "seed": brush.seed,  # with each stroke's index, what its bristles are drawn from
+        # float() of a float32 is exact, and JSON keeps every digit of a Python float.
         "strokes": [dict(zip(brush.params, map(float, row))) for row in painting.strokes.tolist()],
     }
     if not getattr(brush, "impasto", True):
@@ -86,14 +76,11 @@ def load_strokes(path: str | Path, brush: str | None = None, size: int = 512) ->
     """Read an nsp ``.json`` stroke file, or a reference ``.npz`` (then ``brush`` is required and
     ``size`` is the canvas width its pixel conventions are converted at)."""
     path = Path(path)
-    if not path.is_file():
-        raise StrokeFileError(f"strokes={path}: no such file")
+    _check(path.is_file(), f"strokes={path}: no such file")
     if path.suffix == ".npz":
-        if brush is None:
-            raise StrokeFileError(f"strokes={path} is a reference .npz: say which brush with brush=")
+        _check(brush is not None, f"strokes={path} is a reference .npz: say which brush with brush=")
         return _load_npz(path, brush, size)
-    if path.suffix != ".json":
-        raise StrokeFileError(f"strokes={path}: expected an nsp .json or a reference .npz file")
+    _check(path.suffix == ".json", f"strokes={path}: expected an nsp .json or a reference .npz file")
     return _load_json(path, brush)
 
 
@@ -107,37 +94,32 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
         except (ValueError, RecursionError) as err:  # also nesting too deep, an integer of thousands of digits
             reason = "nested too deep" if isinstance(err, RecursionError) else str(err)[:120]
             raise StrokeFileError(f"strokes={path} is not valid JSON ({reason})") from None
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise StrokeFileError(
-            f"strokes={path} is not an nsp stroke file (expected a JSON object with format '{FORMAT}')"
-        )
-    if data.get("version") != VERSION:
-        raise StrokeFileError(f"strokes={path} has version {shown(data.get('version'))}; this nsp reads {VERSION}")
+    _check(isinstance(data, dict) and data.get("format") == FORMAT,
+           f"strokes={path} is not an nsp stroke file (expected a JSON object with format '{FORMAT}')")
+    _check(data.get("version") == VERSION,
+           f"strokes={path} has version {shown(data.get('version'))}; this nsp reads {VERSION}")
     name = data.get("brush")
-    if not isinstance(name, str) or name not in BRUSHES:
-        raise StrokeFileError(f"strokes={path}: unknown brush {shown(name)}, expected one of: {', '.join(BRUSHES)}")
-    params = data.get("params")
-    spec = get_brush(name, params=params if isinstance(params, list) else None)
-    if brush is not None and brush != spec.name:
-        raise StrokeFileError(f"strokes={path} holds {spec.name} strokes, not brush={brush}")
+    _check(isinstance(name, str) and name in BRUSHES,
+           f"strokes={path}: unknown brush {shown(name)}, expected one of: {', '.join(BRUSHES)}")
+    params = data.get("params") if isinstance(data.get("params"), list) else None
+    spec = get_brush(name, params=params)
+    _check(brush is None or brush == spec.name, f"strokes={path} holds {spec.name} strokes, not brush={brush}")
     canvas = data.get("canvas")
-    if not (isinstance(canvas, dict) and all(_is_size(canvas.get(k)) for k in ("width", "height"))
-            and isinstance(canvas.get("background"), str)):
-        expected = '"canvas": {"width": pixels, "height": pixels, "background": colour}'
-        raise StrokeFileError(f"strokes={path} is malformed: expected {expected}")
-    if max(canvas["width"], canvas["height"]) > MAX_CANVAS:
-        raise StrokeFileError(f"strokes={path}: its canvas (width {_shown_size(canvas['width'])}, height "
-                              f"{_shown_size(canvas['height'])}) is no painting's; expected sides from 1 to {MAX_CANVAS} pixels")
+    _check(isinstance(canvas, dict) and all(_is_size(canvas.get(k)) for k in ("width", "height"))
+           and isinstance(canvas.get("background"), str),
+           f'strokes={path} is malformed: expected "canvas": '
+           '{"width": pixels, "height": pixels, "background": colour}')
+    _check(max(canvas["width"], canvas["height"]) <= MAX_CANVAS,
+           f"strokes={path}: its canvas (width {_shown_size(canvas['width'])}, height {_shown_size(canvas['height'])}) "
+           f"is no painting's; expected sides from 1 to {MAX_CANVAS} pixels")
     try:
         parse_color(canvas["background"])
     except ValueError:
-        raise StrokeFileError(
-            f"strokes={path}: its background {shown(canvas['background'])} is not a colour; expected black, white or #rrggbb"
-        ) from None
-    strokes = data.get("strokes")
-    keys = ", ".join(spec.params)
-    if not isinstance(strokes, list) or not all(isinstance(s, dict) for s in strokes):
-        raise StrokeFileError(f'strokes={path} is malformed: expected "strokes": a list of objects with {keys}')
+        raise StrokeFileError(f"strokes={path}: its background {shown(canvas['background'])} is not a colour; "
+                              "expected black, white or #rrggbb") from None
+    strokes, keys = data.get("strokes"), ", ".join(spec.params)
+    _check(isinstance(strokes, list) and all(isinstance(s, dict) for s in strokes),
+           f'strokes={path} is malformed: expected "strokes": a list of objects with {keys}')
     try:
         rows = list(map(itemgetter(*spec.params), strokes))
     except KeyError:
@@ -152,15 +134,14 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
         raise StrokeFileError(f"strokes={path}: a stroke parameter is far outside [0, 1]") from None
     _check_range(path, values, spec.params)
     texture, seed, impasto = data.get("texture"), data.get("seed", 0), data.get("impasto", True)
-    if texture is not None and not (isinstance(texture, str) and texture.startswith(EMBEDDED)):
-        raise StrokeFileError(f'strokes={path}: its "texture" is not an embedded image ({EMBEDDED}…); a stroke '
-                              "file carries its texture, it names no file to read")
-    if not (isinstance(seed, int) and not isinstance(seed, bool) and abs(seed) < 2**63):
-        raise StrokeFileError(f'strokes={path}: its "seed" {str(seed)[:40]!r} is not an integer')
-    if not isinstance(impasto, bool):
-        raise StrokeFileError(f'strokes={path}: its "impasto" {str(impasto)[:40]!r} is not true or false')
+    _check(texture is None or (isinstance(texture, str) and texture.startswith(EMBEDDED)),
+           f'strokes={path}: its "texture" is not an embedded image ({EMBEDDED}…); '
+           "a stroke file carries its texture, it names no file to read")
+    _check(isinstance(seed, int) and not isinstance(seed, bool) and abs(seed) < 2**63,
+           f'strokes={path}: its "seed" {str(seed)[:40]!r} is not an integer')
+    _check(isinstance(impasto, bool), f'strokes={path}: its "impasto" {str(impasto)[:40]!r} is not true or false')
     try:
-        spec = get_brush(spec.name, texture, params if isinstance(params, list) else None, seed=seed, impasto=impasto)
+        spec = get_brush(spec.name, texture, params, seed=seed, impasto=impasto)
     except ValueError as error:
         raise StrokeFileError(f"strokes={path}: its brush cannot be used: {error}") from None
     return StrokeFile(spec, values, canvas["height"], canvas["width"], canvas["background"])
@@ -186,10 +167,9 @@ def _check_range(path: Path, strokes: Tensor, params: tuple[str, ...]) -> None:
     if bad.any():
         row = int(bad.nonzero()[0])
         col = int((~good[row]).nonzero()[0])
-        raise StrokeFileError(
-            f"strokes={path}: {int(bad.sum())} of {len(strokes)} strokes have a parameter that is not a finite "
-            f"number in [0, 1], got {strokes[row, col].item():g} ({params[col]} of stroke {row})"
-        )
+        raise StrokeFileError(f"strokes={path}: {int(bad.sum())} of {len(strokes)} strokes have a parameter that is "
+                              f"not a finite number in [0, 1], got {strokes[row, col].item():g} "
+                              f"({params[col]} of stroke {row})")
 
 
 def _read_npz(path: Path) -> list[np.ndarray]:
@@ -199,8 +179,8 @@ def _read_npz(path: Path) -> list[np.ndarray]:
     try:
         with zipfile.ZipFile(path) as archive:
             for key in NPZ_ARRAYS:
-                if f"{key}.npy" not in archive.namelist():
-                    raise StrokeFileError(f"strokes={path} lacks array {key!r}; expected {', '.join(NPZ_ARRAYS)}")
+                _check(f"{key}.npy" in archive.namelist(),
+                       f"strokes={path} lacks array {key!r}; expected {', '.join(NPZ_ARRAYS)}")
                 info = archive.getinfo(f"{key}.npy")
                 with archive.open(info) as member:
                     version = np.lib.format.read_magic(member)
@@ -208,12 +188,12 @@ def _read_npz(path: Path) -> list[np.ndarray]:
                         raise ValueError(f"npy format version {version} in {key}")
                     shape, _, dtype = NPY_HEADERS[version](member)
                     count = math.prod(shape)
-                    if dtype.kind not in "fiu" or dtype.fields is not None or not 2 <= len(shape) <= 3 or shape[-1] < 1:
-                        raise StrokeFileError(f"strokes={path}: {key} is {dtype} {list(shape)}; expected numbers, "
-                                              "shaped [1, N, k] or [N, k]")
-                    if count > NPZ_MAX_VALUES or count * dtype.itemsize > info.file_size:
-                        raise StrokeFileError(f"strokes={path}: {key} claims {count} values, more than its bytes hold "
-                                              f"or {NPZ_MAX_VALUES} (a damaged file?)")
+                    _check(dtype.kind in "fiu" and dtype.fields is None and 2 <= len(shape) <= 3 and shape[-1] >= 1,
+                           f"strokes={path}: {key} is {dtype} {list(shape)}; "
+                           "expected numbers, shaped [1, N, k] or [N, k]")
+                    _check(count <= NPZ_MAX_VALUES and count * dtype.itemsize <= info.file_size,
+                           f"strokes={path}: {key} claims {count} values, more than its bytes hold "
+                           f"or {NPZ_MAX_VALUES} (a damaged file?)")
                 with archive.open(info) as member:  # from its start: read_array reads the header itself
                     arrays.append(np.lib.format.read_array(member, allow_pickle=False))
     except StrokeFileError:
@@ -227,28 +207,22 @@ def _read_npz(path: Path) -> list[np.ndarray]:
 
 def _load_npz(path: Path, brush: str, size: int) -> StrokeFile:
     spec = get_brush(brush)
-    arrays = _read_npz(path)
-    ctt, color, alpha = (a.reshape(-1, a.shape[-1]) if a.ndim == 3 else a for a in arrays)
+    ctt, color, alpha = (a.reshape(-1, a.shape[-1]) if a.ndim == 3 else a for a in _read_npz(path))
     n_ctt, n_color = spec.reference
-    if ctt.shape[1:] != (n_ctt,) or color.shape[1:] != (n_color,) or len(ctt) != len(color) or alpha.size != len(ctt):
-        raise StrokeFileError(
-            f"strokes={path}: x_ctt {ctt.shape} / x_color {color.shape} / x_alpha {alpha.shape} do not fit "
-            f"brush={brush} (expected [1, N, {n_ctt}], [1, N, {n_color}] and [1, N, 1])"
-        )
+    _check(ctt.shape[1:] == (n_ctt,) and color.shape[1:] == (n_color,) and len(ctt) == len(color) == alpha.size,
+           f"strokes={path}: x_ctt {ctt.shape} / x_color {color.shape} / x_alpha {alpha.shape} "
+           f"do not fit brush={brush} (expected [1, N, {n_ctt}], [1, N, {n_color}] and [1, N, 1])")
     alpha = alpha.reshape(-1, 1)
     bad = ~np.isfinite(np.concatenate([ctt, color, alpha], 1)).all(1)
     if bad.any():
-        raise StrokeFileError(
-            f"strokes={path}: {bad.sum()} of {len(ctt)} strokes hold NaN or infinite values "
-            f"(first: stroke {bad.nonzero()[0][0]}); expected finite numbers"
-        )
+        raise StrokeFileError(f"strokes={path}: {bad.sum()} of {len(ctt)} strokes hold NaN or infinite values "
+                              f"(first: stroke {bad.nonzero()[0][0]}); expected finite numbers")
     for name, values in (("x_ctt", ctt), ("x_color", color), ("x_alpha", alpha)):
         outside = (values < 0) | (values > 1)
         if outside.any():
             row, col = np.argwhere(outside)[0]
-            raise StrokeFileError(
-                f"strokes={path}: {outside.any(1).sum()} of {len(ctt)} strokes have a value outside [0, 1] in "
-                f"{name}, got {values[row, col]:g} (stroke {row}, column {col}); the reference's parameters lie in [0, 1]"
-            )
+            raise StrokeFileError(f"strokes={path}: {outside.any(1).sum()} of {len(ctt)} strokes have a value outside "
+                                  f"[0, 1] in {name}, got {values[row, col]:g} (stroke {row}, column {col}); "
+                                  "the reference's parameters lie in [0, 1]")
     painted_with, strokes = spec.from_reference(ctt, color, alpha, size)
     return StrokeFile(painted_with, torch.tensor(strokes, dtype=torch.float32), size, size, "white")

@@ -2,10 +2,9 @@
 square blocks, how many strokes each block gets, and how a block's strokes move onto the canvas.
 A level may also cover regions only (the faces found in a photo) with finer blocks.
 
-At level m the canvas is cut into m blocks along its long side (and proportionally fewer along a
-short one, so blocks stay square for renderers with square outputs); neighbouring blocks overlap.
-A block whose square reaches past the canvas (level 1 of a non-square image) is padded; its
-``weights`` say which of its pixels are canvas.
+At level m the canvas is cut into m blocks along its long side (and proportionally fewer along a short one, so
+blocks stay square for renderers with square outputs). A block whose square reaches past the canvas (level 1 of a
+non-square image) is padded; its ``weights`` say which of its pixels are canvas.
 """
 from __future__ import annotations
 
@@ -37,11 +36,9 @@ def progressive_grids(strokes: int, height: int, width: int, max_per_block: int,
 
 
 def distribute(strokes: int, blocks: list[int]) -> list[Tensor]:
-    """Split ``strokes`` over the blocks of each level, exactly: (blocks_l,) counts per level.
-
-    Every block gets ⌊strokes / Σblocks⌋; the remainder goes one each to blocks of the finest
-    levels first (detail is where extra strokes show), spread evenly across each level.
-    """
+    """Split ``strokes`` over the blocks of each level, exactly: (blocks_l,) counts per level. Every
+    block gets ⌊strokes / Σblocks⌋; the remainder goes one each to blocks of the finest levels first
+    (detail is where extra strokes show), spread evenly across each level."""
     base, extra = divmod(strokes, sum(blocks))
     counts = [torch.full((n,), base, dtype=torch.long, device="cpu") for n in blocks]  # bookkeeping: the CPU
     for level in reversed(range(len(blocks))):
@@ -55,11 +52,9 @@ def distribute(strokes: int, blocks: list[int]) -> list[Tensor]:
 
 def share(strokes: int, scores: Tensor, cap: int) -> Tensor:
     """Split ``strokes`` over blocks in proportion to their ``scores`` (B,) ≥ 0, none above ``cap``:
-    (B,) long counts summing to exactly min(strokes, B·cap).
-
-    Highest averages (D'Hondt): each stroke in turn goes to the block of the largest
-    score / (strokes it has + 1) among those below the cap; ties go to the earlier block.
-    """
+    (B,) long counts summing to exactly min(strokes, B·cap). Highest averages (D'Hondt): each stroke
+    in turn goes to the block of the largest score / (strokes it has + 1) among those below the cap;
+    ties go to the earlier block."""
     scores = scores.detach().double().cpu().clamp_min(0) + 1e-12  # bookkeeping on the CPU; blocks with nothing to fix still take what is left
     prices = scores[:, None] / torch.arange(1, cap + 1, dtype=torch.float64, device=scores.device)  # (B, cap), falling along a row
     order = torch.argsort(prices.flatten(), descending=True, stable=True)[:strokes]
@@ -71,11 +66,9 @@ class Level:
     """One level: square blocks of ``side`` canvas pixels over a ``height``×``width`` canvas.
 
     Attributes:
-        side: block side in canvas pixels.
         origins: (B, 2) long, each block's top-left pixel (y, x); negative or past the canvas
             where the block is padded.
         counts: (B,) long, strokes each block gets.
-        height, width: the canvas, in pixels.
     """
 
     side: int
@@ -116,10 +109,8 @@ class Level:
         return len(self.origins)
 
     def crop(self, image: Tensor, size: int, pad: str = "replicate") -> Tensor:
-        """The blocks of ``image`` (C, H, W), resampled to ``size``: (B, C, size, size).
-
-        Pixels past the canvas repeat its edge (``pad="replicate"``) or are 0 (``"constant"``).
-        """
+        """The blocks of ``image`` (C, H, W), resampled to ``size``: (B, C, size, size). Pixels past
+        the canvas repeat its edge (``pad="replicate"``) or are 0 (``"constant"``)."""
         s = self.side
         top, left = (-self.origins.min(0).values).clamp(min=0).tolist()
         bottom = max(0, int(self.origins[:, 0].max()) + s - self.height)
@@ -138,12 +129,9 @@ class Level:
         return self.crop(like.new_ones(1, self.height, self.width), size, pad="constant")
 
     def to_canvas(self, x: Tensor, kinds: tuple[str, ...], size: int) -> Tensor:
-        """Strokes of each block, drawn on a ``size``-pixel block, in whole-canvas parameters.
-
-        x: (B, K, d) in [0, 1]; kinds: the brush's parameter kinds. Returns (B, K, d) in [0, 1]:
-        positions go through the block's pixels to the canvas's, sizes (fractions of the width)
-        scale by side / W; angles, colours and transparency do not change.
-        """
+        """Strokes x (B, K, d) in [0, 1] of each block, drawn on a ``size``-pixel block, in
+        whole-canvas parameters (B, K, d): positions go through the block's pixels to the canvas's,
+        sizes (fractions of the width) scale by side / W; the other ``kinds`` do not change."""
         scale = self.side / size  # canvas pixels per block pixel
         out = x.clone()
         for kind, extent, origin in (("x", self.width, self.origins[:, 1]), ("y", self.height, self.origins[:, 0])):

@@ -34,8 +34,7 @@ def cascade():
 
 def find_faces(image: Tensor) -> list[Box]:
     """The frontal faces in ``image`` (3, H, W) in [0, 1], each box grown by ``MARGIN`` and kept
-    within the image; boxes that overlap are merged. Best at a 256-px working size (0.1 s, once the
-    :func:`cascade` is loaded)."""
+    within the image; boxes that overlap are merged. Best at a 256-px working size."""
     _, height, width = image.shape
     pixels = (image.permute(1, 2, 0).clamp(0, 1) * 255).round().byte().cpu().numpy()
     side = min(height, width)

@@ -16,28 +16,20 @@ class PaintLoss:
         l1: β_l1, weight of the mean absolute pixel difference.
         ot: β_ot, weight of the transportation loss; 0 skips computing it.
         grid, eps, iters: the transportation loss's grid side, ε and Sinkhorn iterations (their
-            defaults: ``nsp.painter.schema.LossConfig``).
+            defaults: ``nsp.painter.settings.LossConfig``).
         background: RGB in [0, 1] of the blank canvas (what carries no transport mass).
         extra: name -> (weight, loss of the canvas alone), e.g. a style loss.
     """
 
-    def __init__(
-        self,
-        l1: float,
-        ot: float,
-        grid: int,
-        eps: float,
-        iters: int,
-        background: tuple[float, float, float] = (1.0, 1.0, 1.0),
-        extra: Mapping[str, tuple[float, Callable[[Tensor], Tensor]]] | None = None,
-    ):
-        self.l1, self.ot = l1, ot
-        self.grid, self.eps, self.iters, self.background = grid, eps, iters, background
+    def __init__(self, l1: float, ot: float, grid: int, eps: float, iters: int,
+                 background: tuple[float, float, float] = (1.0, 1.0, 1.0),
+                 extra: Mapping[str, tuple[float, Callable[[Tensor], Tensor]]] | None = None):
+        self.l1, self.ot, self.grid, self.eps, self.iters, self.background = l1, ot, grid, eps, iters, background
         self.extra = dict(extra or {})
 
     @classmethod
     def from_config(cls, loss, background: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> PaintLoss:
-        """The loss a ``loss`` config node describes (``nsp.painter.schema.LossConfig``)."""
+        """The loss a ``loss`` config node describes (``nsp.painter.settings.LossConfig``)."""
         return cls(loss.l1, loss.ot, loss.ot_grid, loss.ot_eps, loss.ot_iters, background)
 
     def __call__(self, canvas: Tensor, target: Tensor) -> dict[str, Tensor]:

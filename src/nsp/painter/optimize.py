@@ -18,12 +18,9 @@ class Optimizer(Protocol):
 
 class RMSprop:
     """``torch.optim.RMSprop``'s update (no momentum, not centred), written out because the first use
-    of any ``torch.optim`` optimizer imports ``torch._dynamo``: 1.8 s of this 2-core machine, a
-    seventh of a 500-stroke painting.
-
-    v ← α·v + (1 − α)·g², p ← p − lr_t·g / (√v + ε); ``corrected``: lr_t = lr·√(1 − α^t) at step t,
-    so the first steps, while v is still mostly its zero start, are not up to 1/√(1 − α) = 10× lr.
-    """
+    of any ``torch.optim`` optimizer imports ``torch._dynamo``, seconds of a painting. v ← α·v + (1 − α)·g²,
+    p ← p − lr_t·g / (√v + ε); ``corrected``: lr_t = lr·√(1 − α^t) at step t, so the first steps, while v
+    is still mostly its zero start, are not up to 1/√(1 − α) = 10× lr."""
 
     def __init__(self, params: Iterable[Tensor], lr: float = 0.01, alpha: float = 0.99, eps: float = 1e-8,
                  corrected: bool = False):
@@ -47,10 +44,9 @@ class RMSprop:
 
 
 def bias_corrected(optimizer: Optimizer) -> Optimizer:
-    """``optimizer`` with RMSprop's first steps bias-corrected, lr_t = lr·√(1 − α^t): this module's
-    :class:`RMSprop` by its flag, ``torch.optim.RMSprop`` by a step pre-hook on its learning rates
-    (the same steps); any other optimizer as it is. Uncorrected, the first steps on a finished
-    painting are up to 1/√(1 − α) = 10× lr and scatter every stroke."""
+    """``optimizer`` with RMSprop's first steps bias-corrected, lr_t = lr·√(1 − α^t) (uncorrected, they
+    scatter every stroke of a finished painting): this module's :class:`RMSprop` by its flag,
+    ``torch.optim.RMSprop`` by a step pre-hook on its learning rates; any other optimizer as it is."""
     if isinstance(optimizer, RMSprop):
         optimizer.corrected = True
     elif isinstance(optimizer, torch.optim.RMSprop):
@@ -65,20 +61,13 @@ def bias_corrected(optimizer: Optimizer) -> Optimizer:
     return optimizer
 
 
-def optimize_strokes(
-    x: Tensor,
-    optimizer: Optimizer,
-    steps: int,
-    objective: Callable[[], tuple[Tensor, dict[str, Tensor]]],
-    frozen: Sequence[int] = (),
-) -> Iterator[tuple[Tensor, dict[str, float]]]:
-    """Take ``steps`` steps of ``optimizer`` on the strokes ``x`` (…, d), a leaf that requires grad.
-
+def optimize_strokes(x: Tensor, optimizer: Optimizer, steps: int,
+                     objective: Callable[[], tuple[Tensor, dict[str, Tensor]]],
+                     frozen: Sequence[int] = ()) -> Iterator[tuple[Tensor, dict[str, float]]]:
+    """Take ``steps`` steps of ``optimizer`` on the strokes ``x`` (…, d), a leaf that requires grad,
+    each clamped to [0, 1] after; parameters at the indices ``frozen`` (of the last axis) do not move.
     ``objective()`` renders the current strokes: (canvas, losses) with the weighted ``losses["total"]``.
-    Parameters at the indices ``frozen`` (of the last axis) do not move; after each step every
-    parameter is clamped to [0, 1]. Yields, per step, the canvas the step was computed on
-    (detached) and the losses as numbers.
-    """
+    Yields, per step, the canvas the step was computed on (detached) and the losses as numbers."""
     for _ in range(steps):
         canvas, losses = objective()
         optimizer.zero_grad()

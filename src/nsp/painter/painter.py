@@ -1,17 +1,15 @@
 """Stroke search (paper §3): strokes are optimized by gradient descent so that, composited in order,
-they reproduce the target; progressively, from one block to finer grids of overlapping blocks.
+they reproduce the target; progressively, from one block to finer grids of blocks.
 
 Each level paints all its blocks as one batch (blocks × active strokes × pixels). A level's strokes
 are shared among its blocks by the error left when it starts (or equally, as in the paper). Strokes
 join a block's active set one at a time: each is tried at a few regions of large error and lengths,
-and the one that lowers the block's error most joins; after each addition the whole active
-set takes ``steps_per_stroke`` optimizer steps (paper §3.6: 20), and each stroke's colours stay
-within those of the target around it. Once every stroke is placed, all the level's strokes take
-``polish`` more steps together: the last strokes added would otherwise have had the fewest. A
-finished level is rendered by the vector engine at the working resolution and is the background of
-the next; a last level of small blocks may work on a finer canvas (``detail_side``). Faces found in the
-photo (:mod:`nsp.painter.faces`) get a share of the strokes in a level of finer blocks of their own,
-painted last.
+and the one that lowers the block's error most joins; after each addition the whole active set takes
+``steps_per_stroke`` optimizer steps (paper §3.6: 20), each stroke's colours kept within the target's
+around it. Once every stroke is placed, all the level's strokes take ``polish`` more steps together
+(the last added would otherwise have had the fewest). A finished level, rendered by the vector engine,
+is the background of the next; a last level of small blocks may work on a finer canvas
+(``detail_side``). Faces found in the photo (:mod:`nsp.painter.faces`) get a last level of their own.
 """
 from __future__ import annotations
 
@@ -31,7 +29,7 @@ from nsp.painter.faces import Box
 from nsp.painter.optimize import Optimizer, optimize_strokes
 from nsp.painter.palette import Palette
 from nsp.painter.placement import Forms, place_strokes
-from nsp.painter.schema import ScheduleConfig
+from nsp.painter.settings import ScheduleConfig
 
 LENGTHS = (0.5, 1.0, 2.0)  # a candidate stroke per length at each error peak, × the reach of the colour there
 FACE_GRID = 4  # a face level has at least this many blocks along the largest face (eyes, nose, mouth: 2–4 px strokes)
@@ -54,14 +52,12 @@ class Painter:
     """Paints a target with strokes of one brush.
 
     Args:
-        brush: the brush.
         renderer: ``renderer.resolution(side) -> size``, ``renderer.composite(x, block, under)``
             (strokes painted in order over their blocks) and ``renderer.gains(x, block, canvas, goal,
             weights)`` (the error each stroke alone takes away): see :mod:`nsp.painter.renderer`.
         loss: ``loss(canvas, target) -> {"total": scalar, ...}`` on (B, 3, h, w) blocks.
         optimizer: builds the optimizer of a list of parameters (e.g. a ``_partial_`` RMSprop).
-        schedule: the levels and how each stroke is added and optimized (:class:`ScheduleConfig`,
-            whose defaults are the command's).
+        schedule: the levels and how each stroke is added and optimized (:class:`ScheduleConfig`).
         background: canvas colour.
         generator: the only source of randomness (new strokes' sizes, angles, directions).
         callbacks: see :class:`Callback`.
@@ -69,22 +65,12 @@ class Painter:
             mode optimizes the colours alone).
     """
 
-    def __init__(
-        self,
-        brush: Brush,
-        renderer,
-        loss: Callable[[Tensor, Tensor], dict[str, Tensor]],
-        optimizer: Callable[[list[Tensor]], Optimizer],
-        *,
-        schedule: ScheduleConfig | None = None,
-        background: str = "white",
-        generator: torch.Generator | None = None,
-        callbacks: Sequence[Callback] = (),
-        trainable: Sequence[int] | None = None,
-    ):
+    def __init__(self, brush: Brush, renderer, loss: Callable[[Tensor, Tensor], dict[str, Tensor]],
+                 optimizer: Callable[[list[Tensor]], Optimizer], *, schedule: ScheduleConfig | None = None,
+                 background: str = "white", generator: torch.Generator | None = None,
+                 callbacks: Sequence[Callback] = (), trainable: Sequence[int] | None = None):
         self.brush, self.renderer, self.loss, self.optimizer = brush, renderer, loss, optimizer
-        self.schedule = schedule if schedule is not None else ScheduleConfig()  # checked by the command (nsp.painter.run)
-        self.background = background
+        self.schedule, self.background = schedule if schedule is not None else ScheduleConfig(), background
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         self.callbacks = list(callbacks)
         self.frozen = [] if trainable is None else [i for i in range(brush.d) if i not in set(trainable)]
@@ -95,9 +81,8 @@ class Painter:
     def levels(self, strokes: int, height: int, width: int, finest: int | None = None,
                faces: Sequence[Box] = ()) -> list[Level]:
         """The schedule for ``strokes`` strokes on a height×width canvas; counts sum to ``strokes``.
-        ``finest``: the longest side the last levels' canvas may have (see ``detail_side``);
-        ``faces``: boxes that get a level of their own, last (see ``face_share``); the other levels
-        are those of the strokes left."""
+        ``finest``: the longest side the last levels' canvas may have (see ``detail_side``); ``faces``:
+        boxes that get a level of their own, last (see ``face_share``), the others sharing the rest."""
         s = self.schedule
         on_faces = round(s.face_share * strokes) if faces else 0
         strokes -= on_faces
@@ -122,14 +107,11 @@ class Painter:
         return level(*long_side(height, width, round(max(height, width) * scale))) if scale > 1 else coarse
 
     def paint(self, target: Tensor, strokes: int, detail: Tensor | None = None, faces: Sequence[Box] = ()) -> Tensor:
-        """Paint ``target`` (3, H, W) in [0, 1] with exactly ``strokes`` strokes; with ``detail``,
-        the same picture at a finer size (3, H', W'), the last levels may work on it, downsampled
-        (see ``detail_side``); ``faces`` (e.g. from :func:`nsp.painter.faces.find_faces`) get a
-        level of their own (see ``face_share``).
-
-        Returns (strokes, d) in [0, 1], whole-canvas parameters in painting order. Interrupted,
-        :meth:`strokes` still returns what was painted.
-        """
+        """Paint ``target`` (3, H, W) in [0, 1] with exactly ``strokes`` strokes: (strokes, d) in [0, 1],
+        whole-canvas parameters in painting order (interrupted, :meth:`strokes` still returns what was
+        painted). With ``detail``, the same picture at a finer size (3, H', W'), the last levels may
+        work on it, downsampled (see ``detail_side``); ``faces`` (e.g. from
+        :func:`nsp.painter.faces.find_faces`) get a level of their own (see ``face_share``)."""
         _, height, width = target.shape
         self._done, self._active, self.step = [], None, 0
         color = torch.tensor(parse_color(self.background), dtype=target.dtype, device=target.device)
@@ -242,10 +224,7 @@ class Painter:
 
 
 def _in_order(x: Tensor, painted: Tensor) -> Tensor:
-    """The painted strokes of x (B, K, d) in painting order: (N, d).
-
-    Interleaved across blocks (every block's first stroke, then every second, …): a level then
-    fills in everywhere at once, and each block's later, finer strokes stay on top of its
-    neighbours' earlier, broader ones where blocks overlap.
-    """
+    """The painted strokes of x (B, K, d) in painting order: (N, d), interleaved across blocks (every
+    block's first stroke, then every second, …), so a level fills in everywhere at once and each
+    block's later, finer strokes stay on top of its neighbours' earlier, broader ones where they overlap."""
     return x.transpose(0, 1)[painted.T]

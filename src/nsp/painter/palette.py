@@ -9,10 +9,9 @@ from nsp.brushes import Brush
 
 
 class Palette:
-    """The colours of target blocks around each pixel: those of the pixels within a window (of the
-    3×3-smoothed target, so a lone pixel counts little and edges' blends count), which a stroke's
-    colours are kept near. Not a per-channel range: between a beige face and a dark ground that
-    would allow a green no pixel there has.
+    """The colours of target blocks around each pixel, within a window of the 3×3-smoothed target (a
+    lone pixel counts little), which a stroke's colours are kept near. Not a per-channel range: between
+    a beige face and a dark ground that would allow a green no pixel there has.
 
     Args:
         brush: the strokes' brush (where its points and colours are among its parameters).

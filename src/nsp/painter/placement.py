@@ -37,13 +37,10 @@ class Forms:
 
 
 def largest_errors(canvas: Tensor, target: Tensor, weights: Tensor, count: int = 1) -> tuple[Tensor, Tensor]:
-    """Pixels (row, col) of the ``count`` largest locally averaged |canvas − target| per block, at
-    least a window apart, largest first.
-
-    canvas, target: (B, 3, h, w); weights: (B, 1, h, w), 0 where a pixel is padding.
-    Returns two (B, count) long tensors. Averaging makes a pick a region that is wrong rather than
-    one stray pixel; keeping only local maxima makes the picks different regions.
-    """
+    """Pixels (row, col), two (B, count) long tensors, of the ``count`` largest locally averaged
+    |canvas − target| (B, 3, h, w) per block, at least a window apart, largest first; weights
+    (B, 1, h, w) are 0 on padding. Averaging makes a pick a region that is wrong rather than one
+    stray pixel; keeping only local maxima makes the picks different regions."""
     side = window(canvas.shape[-1])
     error = smooth((canvas - target).abs().sum(1, keepdim=True) * weights, side)
     width = canvas.shape[-1]
@@ -59,21 +56,12 @@ def largest_errors(canvas: Tensor, target: Tensor, weights: Tensor, count: int =
     return index // width, index % width
 
 
-def place_strokes(
-    brush: Brush,
-    canvas: Tensor,
-    target: Tensor,
-    weights: Tensor,
-    size: tuple[float, float],
-    generator: torch.Generator,
-    peaks: int = 1,
-    scales: Sequence[float] = (1.0,),
-    forms: Forms | None = None,
-) -> Tensor:
+def place_strokes(brush: Brush, canvas: Tensor, target: Tensor, weights: Tensor, size: tuple[float, float],
+                  generator: torch.Generator, peaks: int = 1, scales: Sequence[float] = (1.0,),
+                  forms: Forms | None = None) -> Tensor:
     """New strokes for each block, centred on the regions of its largest error.
 
     Args:
-        brush: the brush.
         canvas, target: (B, 3, h, w) the block as painted so far and as it should look.
         weights: (B, 1, h, w), 0 on padding.
         size: range of a new stroke's length, as fractions of the block's width.
@@ -85,12 +73,10 @@ def place_strokes(
     Returns:
         (B, d) strokes in block coordinates, in [0, 1], with one peak and one scale; else
         (B, peaks · len(scales), d), peak by peak. A stroke lies along the target's forms at the
-        error (the structure tensor's direction; a random one where the target is flat) and spans
-        the stretch, along and across them, over which the target keeps the colour there
-        (:func:`~nsp.painter.structure.reach`), its length within ``size``; its colours are the
-        target's along that stretch (a two-colour brush's head and tail those of either half);
-        transparency 1. Rectangles (brushes with an angle) get centre, length, thickness and angle;
-        Bézier brushes a straight centreline and a radius of half the thickness.
+        error (a random direction where the target is flat) and spans the stretch over which the
+        target keeps the colour there (:func:`~nsp.painter.structure.reach`), its length within
+        ``size``; its colours are the target's along it (a two-colour brush's head and tail those of
+        either half); transparency 1.
     """
     batch, _, h, w = canvas.shape
     rows, cols = largest_errors(canvas, target, weights, peaks)  # (B, P) each
@@ -126,17 +112,19 @@ def _stroke(brush: Brush, cx: Tensor, cy: Tensor, direction: Tensor, length: Ten
     """(B, d) parameters of strokes centred at (cx, cy) (fractions of the block), pointing at
     ``direction`` (radians), ``length`` and ``thickness`` fractions of the block width; ``colors``:
     one (B, 3) per colour of the brush, in parameter order."""
+
+    def at(kind: str) -> list[int]:
+        return [i for i, k in enumerate(brush.kinds) if k == kind]
+
     x = torch.full((len(cx), brush.d), 0.5, device=cx.device)
-    xs = [i for i, k in enumerate(brush.kinds) if k == "x"]
-    ys = [i for i, k in enumerate(brush.kinds) if k == "y"]
+    xs, ys, sizes = at("x"), at("y"), at("size")
     spread = torch.linspace(-0.5, 0.5, len(xs), device=cx.device) if len(xs) > 1 else cx.new_zeros(1)  # points along the stroke
     x[:, xs] = cx[:, None] + spread * (length * torch.cos(direction))[:, None]
     x[:, ys] = cy[:, None] + spread * (length * torch.sin(direction))[:, None]
-    sizes = [i for i, k in enumerate(brush.kinds) if k == "size"]
     rectangle = "angle" in brush.kinds
     # a rectangle's sizes are its length and thickness; a Bézier's are radii of W/4 units (SPEC §2)
     x[:, sizes] = torch.stack([length, thickness], 1)[:, : len(sizes)] if rectangle else (2 * thickness)[:, None]
-    x[:, [i for i, k in enumerate(brush.kinds) if k == "angle"]] = ((direction / math.pi) % 1)[:, None]
-    x[:, [i for i, k in enumerate(brush.kinds) if k == "color"]] = torch.cat(colors, 1)
-    x[:, [i for i, k in enumerate(brush.kinds) if k == "alpha"]] = 1.0
+    x[:, at("angle")] = ((direction / math.pi) % 1)[:, None]
+    x[:, at("color")] = torch.cat(colors, 1)
+    x[:, at("alpha")] = 1.0
     return x.clamp(0, 1)

@@ -1,16 +1,12 @@
-"""The painter's differentiable renderers behind one interface:
-``renderer(x (B, d), size) -> (foreground (B, 3, size, size), alpha (B, 1, size, size))``, each
-stroke alone; ``renderer.composite(x, block, under)``, strokes painted in order over their blocks;
-``renderer.gains(x, block, canvas, goal, weights)``, the error each stroke alone takes from its
-block; ``renderer.resolution(side)``, the pixels a block is painted at.
+"""The painter's differentiable renderers behind one interface: ``renderer(x (B, d), size) ->
+(foreground (B, 3, size, size), alpha (B, 1, size, size))``, each stroke alone; ``renderer.composite(x,
+block, under)``, strokes painted in order over their blocks; ``renderer.gains(x, block, canvas, goal,
+weights)``, the error each stroke alone takes from its block; ``renderer.resolution(side)``.
 
 ``analytic`` is the vector engine's soft mode: any resolution, nothing to train. ``neural`` is a
 network trained by ``python -m nsp.train``, the paper's choice: one fixed output size S.
 """
 from __future__ import annotations
-
-from pathlib import Path
-from typing import Any
 
 import torch
 from torch import Tensor, nn
@@ -19,6 +15,7 @@ from nsp.brushes import Brush
 from nsp.engine import composite, render
 from nsp.engine.raster import composite_blocks, paint_gains
 from nsp.errors import BadInput
+from nsp.painter.settings import RendererConfig
 from nsp.renderers.checkpoint import load_renderer
 
 
@@ -26,14 +23,10 @@ class AnalyticRenderer:
     """The soft vector engine.
 
     Args:
-        brush: the brush.
-        softness: edge width in block pixels; wider edges reach further but blur the optimum.
-            None: the brush's own.
+        softness: edge width in block pixels (None: the brush's own); wider edges reach further but blur the optimum.
         block_size: the largest block side rendered; bigger blocks are optimized downsampled.
         compile: the soft shading, forward and back, by its compiled kernels, one for every block
-            size (:class:`nsp.engine.raster.AnySizeShade`): the same strokes, to float rounding, faster.
-            True: compiled first where this machine has none; None (auto): where it has them
-            (``python -m nsp.engine`` compiles them; :func:`nsp.engine.fused.choose`); False: never.
+            size (:class:`nsp.engine.raster.AnySizeShade`), as :func:`nsp.engine.raster.rasterize`'s.
     """
 
     def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64,
@@ -74,8 +67,7 @@ class NeuralRenderer:
         return self.network(x)
 
     def composite(self, x: Tensor, block: Tensor, under: Tensor) -> Tensor:
-        """Strokes x (N, d), in order, each painted over its ``block`` (N,) of ``under`` (B, 3, s, s):
-        (B, 3, s, s); a block's strokes are stacked in order, its empty places transparent."""
+        """As :meth:`AnalyticRenderer.composite`: a block's strokes stacked in order, its empty places transparent."""
         blocks, _, size, _ = under.shape
         fg, alpha = self(x, size)
         index = torch.arange(len(x), device=x.device) - torch.searchsorted(block, block)  # a stroke's place in its block
@@ -84,33 +76,22 @@ class NeuralRenderer:
         return composite(stacked, alpha.new_zeros(blocks, depth, 1, size, size).index_put((block, index), alpha), under)
 
     def gains(self, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
-        """How much each stroke x (N, d), painted alone over its ``block`` (N,) of ``canvas`` (B, 3, s, s),
-        lowers Σ weights·|canvas − goal| there (weights (B, 1, s, s)): (N,)."""
+        """As :meth:`AnalyticRenderer.gains`, from each stroke's whole image."""
         fg, alpha = self(x, canvas.shape[-1])
         under, aim = canvas.index_select(0, block), goal.index_select(0, block)
         painted = torch.lerp(under, fg, alpha)
         return (((under - aim).abs() - (painted - aim).abs()) * weights.index_select(0, block)).sum((1, 2, 3))
 
 
-def load_neural(path: str | Path, brush: Brush, device: torch.device | str = "cpu") -> NeuralRenderer:
-    """The renderer in an ``nsp.train`` checkpoint, on ``device``; ``ValueError`` naming the problem
-    if the file is not one or was trained for another brush."""
-    network, trained_for, size = load_renderer(path)
-    if trained_for != brush.name:
-        raise BadInput(
-            f"renderer.checkpoint={path} renders {trained_for} strokes, not brush={brush.name}; "
-            f"use brush={trained_for} or a checkpoint from `python -m nsp.train brush={brush.name}`"
-        )
-    return NeuralRenderer(network.to(device), size)
-
-
-def build_renderer(cfg: Any, brush: Brush, device: torch.device | str = "cpu",
-                   strokes: int = 0) -> AnalyticRenderer | NeuralRenderer:
-    """The painter's renderer a config's ``renderer`` node (nsp.painter.schema.RendererConfig) names:
-    the analytic one (``compile`` true, false or null: auto, as :class:`AnalyticRenderer`'s), or the
-    network of its checkpoint on ``device``. ``strokes``: how many the painting has (unused)."""
+def build_renderer(cfg: RendererConfig, brush: Brush,
+                   device: torch.device | str = "cpu") -> AnalyticRenderer | NeuralRenderer:
+    """The painter's renderer ``cfg`` names: the analytic one (``compile`` true, false or null: auto,
+    as :class:`AnalyticRenderer`'s), or the network of its ``nsp.train`` checkpoint on ``device``
+    (:class:`BadInput` if it was trained for another brush)."""
     if cfg.name == "analytic":
         return AnalyticRenderer(brush, cfg.softness, cfg.block_size, cfg.compile)
-    if cfg.checkpoint is None:
-        raise BadInput(f"renderer=neural needs renderer.checkpoint=PATH, from `python -m nsp.train brush={brush.name}`")
-    return load_neural(cfg.checkpoint, brush, device)
+    network, trained_for, size = load_renderer(cfg.checkpoint)
+    if trained_for != brush.name:
+        raise BadInput(f"renderer.checkpoint={cfg.checkpoint} renders {trained_for} strokes, not brush={brush.name}; "
+                       f"use brush={trained_for} or a checkpoint from `python -m nsp.train brush={brush.name}`")
+    return NeuralRenderer(network.to(device), size)

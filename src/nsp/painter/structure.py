@@ -31,12 +31,9 @@ def structure_tensor(image: Tensor, window: int) -> Tensor:
 
 
 def orientation(j: Tensor) -> tuple[Tensor, Tensor]:
-    """Direction along the forms and how clear it is, from structure tensors j (..., 3).
-
-    Returns the angle (...) in radians (x right, y down) of the eigenvector of J's smaller
-    eigenvalue — across the dominant gradient, i.e. along edges and stripes — and the coherence
-    ((λ1 − λ2) / (λ1 + λ2))² in [0, 1] (0: no direction, or flat; 1: one clean edge).
-    """
+    """Direction along the forms and how clear it is, from structure tensors j (..., 3): the angle (...)
+    in radians (x right, y down) of the eigenvector of J's smaller eigenvalue (along edges and stripes),
+    and the coherence ((λ1 − λ2) / (λ1 + λ2))² in [0, 1] (0: no direction, or flat; 1: one clean edge)."""
     jxx, jyy, jxy = j.unbind(-1)
     trace = jxx + jyy
     spread = torch.sqrt((jxx - jyy) ** 2 + 4 * jxy**2)
@@ -50,10 +47,9 @@ def reach(target: Tensor, canvas: Tensor, row: Tensor, col: Tensor, angle: Tenso
     scale of the detail there, as far as this canvas still misses it.
 
     target, canvas: (B, 3, h, w); row, col: (B, P) pixels, P of each block; angle: (B, P) radians;
-    color: (B, P, 3); limit: the farthest distance looked at, in pixels. Walks out along +angle,
-    −angle and the two perpendiculars in ``samples`` equal steps up to ``limit``, and stops before
-    the first sample where ``color`` is no closer to the target than the canvas is (mean absolute
-    channel difference), or past the block.
+    color: (B, P, 3). Walks out along ±angle and the two perpendiculars in ``samples`` equal steps up
+    to ``limit`` px, stopping before the first sample where ``color`` is no closer to the target than
+    the canvas is (mean absolute channel difference), or past the block.
 
     Returns (B, P, 4, samples + 1, 3) the target's colours passed on each walk (the point itself
     first; samples past the stop repeat the last one inside) and (B, P, 4) the distances reached in

@@ -1,19 +1,16 @@
 """Style transfer on strokes (paper §3.5), after the content painting.
 
 Both modes first recolour the painting toward the style image with one map shared by every stroke
-and by the canvas colour (:mod:`nsp.style.recolor`), so colours that were alike stay alike: a pixel
-where a translucent stroke shows the canvas is recoloured as one where an opaque stroke shows a
-colour alike.
+and by the canvas colour (:mod:`nsp.style.recolor`), so colours that were alike stay alike (where a
+translucent stroke shows the canvas too). β_sty (``weight``) is the content/style balance of both.
 
 - ``mode="color"`` is :func:`nsp.style.recolor.recolor`: the shared map, then each stroke's colours
   on their own, within the same bounds; shape parameters stay bit for bit.
-- ``mode="full"`` then optimizes every parameter on the whole canvas with
-  L = content loss + β_sty·L_style, for the style's texture. The content loss compares the canvas
-  with the photo recoloured by the same map, so it keeps the picture, not its old colours. Last, a
-  shared map puts the chroma back on the style's: the style loss of random filters barely sees flat
-  colour, so the strokes' hues drift while they take the texture.
-
-β_sty (``weight``) is the one content/style balance of both modes.
+- ``mode="full"`` then optimizes every parameter on the whole canvas with L = content loss +
+  β_sty·L_style, for the style's texture. The content loss compares the canvas with the photo
+  recoloured by the same map, so it keeps the picture, not its old colours. Last, a shared map puts
+  the chroma back on the style's: the style loss of random filters barely sees flat colour, so the
+  strokes' hues drift while they take the texture.
 """
 from __future__ import annotations
 
@@ -31,38 +28,24 @@ from nsp.style import Recoloring, StyleLoss
 from nsp.style.recolor import ColorSettings, recolor, shared_map
 
 
-def stylize(
-    brush: Brush,
-    strokes: Tensor,
-    target: Tensor,
-    style: Tensor,
-    content: Callable[[Tensor, Tensor], dict[str, Tensor]],
-    optimizer: Callable[[list[Tensor]], Optimizer],
-    *,
-    weight: float,
-    steps: int,
-    loss: StyleLoss | None = None,
-    mode: str = "full",
-    background: str = "white",
-    softness: float | None = None,
-    seed: int = 0,
-    color: ColorSettings = ColorSettings(),
-    callbacks: Sequence[Callable[[int, dict[str, float]], None]] = (),
-    tick: Callable[[], None] | None = None,
-) -> tuple[Tensor, str]:
+def stylize(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor,
+            content: Callable[[Tensor, Tensor], dict[str, Tensor]], optimizer: Callable[[list[Tensor]], Optimizer], *,
+            weight: float, steps: int, loss: StyleLoss | None = None, mode: str = "full", background: str = "white",
+            softness: float | None = None, seed: int = 0, color: ColorSettings = ColorSettings(),
+            callbacks: Sequence[Callable[[int, dict[str, float]], None]] = (),
+            tick: Callable[[], None] | None = None) -> tuple[Tensor, str]:
     """Restyle ``strokes`` (N, d), a painting of ``target`` (3, H, W), in the style of the image
-    ``style`` (3, h, w), all RGB in [0, 1].
+    ``style`` (3, h, w), all RGB in [0, 1], on the vector engine at the target's size. Returns the
+    stylized strokes (N, d) in [0, 1] and the canvas colour ``background`` recoloured by the same
+    map (``#rrggbb``).
 
-    The canvas is the vector engine at the target's size. Full mode's steps need ``loss``, the
-    style loss against ``style`` (``loss(canvas)``); ``content(canvas, target)`` returns the
-    painter's terms with their weighted ``total``. Colour mode uses neither, nor ``optimizer``: it
-    builds no feature network. ``weight`` is β_sty: how far the lightness follows the style's, and
-    in full mode the style loss's weight in the ``steps`` optimizer steps, on soft edges
-    ``softness`` px wide (None: the brush's own).
-    Returns the stylized strokes (N, d) in [0, 1] and the canvas colour ``background`` recoloured
-    by the same map (``#rrggbb``); each callback gets (step, losses) after each step. ``seed`` seeds
-    the recolouring's draws; ``color`` holds its settings; colour mode calls ``tick`` after each of its
-    fits' steps.
+    Full mode's steps need ``loss``, the style loss against ``style`` (``loss(canvas)``);
+    ``content(canvas, target)`` returns the painter's terms with their weighted ``total``. Colour
+    mode uses neither, nor ``optimizer``: it builds no feature network. ``weight`` is β_sty: how far
+    the lightness follows the style's, and in full mode the style loss's weight in the ``steps``
+    optimizer steps, on soft edges ``softness`` px wide (None: the brush's own); each callback gets
+    (step, losses) after each. ``seed`` and ``color`` seed and set the recolouring; colour mode calls
+    ``tick`` after each of its fits' steps.
     """
     if mode not in MODES:
         raise ValueError(f"style.mode={mode}: expected one of {', '.join(MODES)}")
@@ -100,7 +83,6 @@ def stylize(
 
 
 def canvas_color(recoloring: Recoloring, background: str) -> str:
-    """The canvas colour ``background`` (as :func:`~nsp.engine.parse_color` reads it) through
-    ``recoloring``, as ``#rrggbb``: where translucent strokes show the canvas, it is one of the
-    painting's colours."""
+    """The canvas colour ``background`` through ``recoloring``, as ``#rrggbb``: where translucent strokes
+    show the canvas, it is one of the painting's colours."""
     return hex_color(recoloring(torch.tensor(parse_color(background))))

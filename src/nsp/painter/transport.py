@@ -25,11 +25,9 @@ _TAIL = -80.0  # log-ratio below which a term is raised: exp(-80) is still a nor
 
 
 def _lse(x: Tensor, dim: int) -> Tensor:
-    """torch.logsumexp over ``dim``, with every term raised to at least e^-80 of the largest.
-
-    On CPU, exp of inputs that underflow (below about -87 in float32) takes a slow path costing
-    5-50×, and ε = 0.01 puts much of the kernel there; the change is under n·e^-80 relative.
-    """
+    """torch.logsumexp over ``dim``, with every term raised to at least e^-80 of the largest: on CPU, exp
+    of inputs that underflow (below about -87 in float32) takes a slow path, and ε = 0.01 puts much of
+    the kernel there; the change is under n·e^-80 relative."""
     top = x.amax(dim, keepdim=True).detach()  # any shift gives the same softmax gradient
     return (x - top).clamp(min=_TAIL).exp().sum(dim).log() + top.squeeze(dim)
 
@@ -51,52 +49,41 @@ def _sq_dist(x: Tensor) -> Tensor:
 
 
 def _grid_kernel(h: Tensor, kr: Tensor, kc: Tensor) -> Tensor:
-    """out[b, i, j] = LSE_{k,l}(h[b, k, l] + kr[i, k] + kc[j, l]) as two 1-D passes.
-
-    h: (B, H, W); kr: (H, H); kc: (W, W). Returns (B, H, W).
-    """
+    """out[b, i, j] = LSE_{k,l}(h[b, k, l] + kr[i, k] + kc[j, l]) as two 1-D passes: h (B, H, W), kr (H, H),
+    kc (W, W) -> (B, H, W)."""
     t = _lse(h[:, :, None, :] + kc, dim=-1)  # (B, H_k, W_j): columns first
     return _lse(t[:, None, :, :] + kr[None, :, :, None], dim=2)  # (B, H_i, W_j)
 
 
 def sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> Tensor:
-    """Entropic transport cost ⟨C, P⟩ between two masses on the same grid, separable kernel.
+    """Entropic transport costs ⟨C, P⟩ (B,), ≥ 0 and differentiable, between two masses on the same
+    grid, by the separable kernel.
 
     Args:
-        a, b: (B, H, W) nonnegative masses (normalized here to sum 1; an all-zero image counts
-            as uniform).
+        a, b: (B, H, W) nonnegative masses (normalized here to sum 1; an all-zero image counts as uniform).
         eps: entropic regularization ε, in the units of C (squared distance, coordinates in [0, 1]).
         iters: Sinkhorn iterations (each one updates u, then v).
-
-    Returns:
-        (B,) transport costs, ≥ 0 and differentiable in a and b.
     """
     height, width = a.shape[-2:]
     scale = max(height, width)
-    cr = _sq_dist(_coords(height, scale, a))  # (H, H) row part of C
-    cc = _sq_dist(_coords(width, scale, a))  # (W, W) column part of C
+    cr, cc = _sq_dist(_coords(height, scale, a)), _sq_dist(_coords(width, scale, a))  # C's (H, H) and (W, W) parts
     kr, kc = -cr / eps, -cc / eps  # log Gibbs kernel factors
     log_a, log_b = _masses(a), _masses(b)
-    u = torch.zeros_like(log_a)
-    v = torch.zeros_like(log_b)
+    u, v = torch.zeros_like(log_a), torch.zeros_like(log_b)
     for _ in range(iters):
         u = log_a - _grid_kernel(v, kr, kc)
         v = log_b - _grid_kernel(u, kr, kc)  # C is symmetric, so the transpose is the same kernel
     # ⟨C, P⟩ = Σ P·C_rows + Σ P·C_cols, each summed in the log domain; the floor keeps log C
     # finite on the diagonal and adds under 1e-30 to the cost.
-    log_cr = torch.log(cr.clamp(min=1e-30))
-    log_cc = torch.log(cc.clamp(min=1e-30))
+    log_cr, log_cc = torch.log(cr.clamp(min=1e-30)), torch.log(cc.clamp(min=1e-30))
     rows = torch.logsumexp((u + _grid_kernel(v, kr + log_cr, kc)).flatten(1), dim=1)
     cols = torch.logsumexp((u + _grid_kernel(v, kr, kc + log_cc)).flatten(1), dim=1)
     return rows.exp() + cols.exp()
 
 
 def dense_sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> Tensor:
-    """The reference: :func:`sinkhorn` with the explicit (HW)×(HW) cost matrix.
-
-    Same arguments, grid and iterations, so the two agree to rounding; O((HW)²) time and memory,
-    kept for tests and the benchmark only.
-    """
+    """The reference: :func:`sinkhorn` with the explicit (HW)×(HW) cost matrix, the same arguments,
+    grid and iterations, so the two agree to rounding; O((HW)²) time and memory, for tests and benchmarks."""
     height, width = a.shape[-2:]
     scale = max(height, width)
     r, c = torch.meshgrid(_coords(height, scale, a), _coords(width, scale, a), indexing="ij")
@@ -104,47 +91,32 @@ def dense_sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> T
     cost = ((points[:, None, :] - points[None, :, :]) ** 2).sum(-1)  # (N, N)
     kernel = -cost / eps  # log Gibbs kernel
     log_a, log_b = _masses(a).flatten(1), _masses(b).flatten(1)  # (B, N)
-    u = torch.zeros_like(log_a)
-    v = torch.zeros_like(log_b)
+    u, v = torch.zeros_like(log_a), torch.zeros_like(log_b)
     for _ in range(iters):
         u = log_a - _lse(v[:, None, :] + kernel, dim=2)
         v = log_b - _lse(u[:, :, None] + kernel, dim=1)
-    # (B, N, N); raising entries below e^-80 to it keeps exp off its slow path (see _lse) and
-    # changes the cost by under N²·e^-80
+    # (B, N, N); entries raised to e^-80 keep exp off its slow path (see _lse), changing the cost under N²·e^-80
     plan = torch.exp((u[:, :, None] + v[:, None, :] + kernel).clamp(min=_TAIL))
     return (plan * cost).sum((1, 2))
 
 
-def transport_loss(
-    canvas: Tensor,
-    target: Tensor,
-    grid: int,
-    eps: float,
-    iters: int,
-    background: tuple[float, float, float] = (0.0, 0.0, 0.0),
-) -> Tensor:
-    """The painter's transportation loss L_ot between a canvas and its target.
+def transport_loss(canvas: Tensor, target: Tensor, grid: int, eps: float, iters: int,
+                   background: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Tensor:
+    """The painter's transportation loss L_ot between a canvas and its target: a scalar, the mean over
+    the batch of the channel-averaged transport costs.
 
-    Both images are area-averaged to grid×grid. The mass of a pixel, per channel, is its distance
-    from the blank canvas colour, |image − background|: on the default black canvas that is the
-    pixel intensity (the reference implementation's mass), and on a white one it is the ink, so the
-    mass is always what the strokes lay down rather than the empty background. Each channel is
-    transported separately and the costs averaged: colour stays in the comparison (a red stroke
-    moves towards red), and it is the deterministic expectation of the reference's one random
-    channel.
+    Both images are area-averaged to grid×grid. A pixel's mass, per channel, is |image − background|:
+    the intensity on a black canvas (the reference implementation's mass), the ink on a white one,
+    always what the strokes lay down. Each channel is transported separately and the costs averaged:
+    colour stays in the comparison, the deterministic expectation of the reference's one random channel.
 
     Args:
         canvas, target: (B, 3, H, W) images in [0, 1].
         grid: side of the square transport grid.
         eps, iters: Sinkhorn ε and iterations (paper: 0.01, 5).
         background: RGB in [0, 1] of the blank canvas.
-
-    Returns:
-        scalar: mean over the batch of the channel-averaged transport costs.
     """
     blank = torch.tensor(background, device=canvas.device, dtype=canvas.dtype)[:, None, None]
-    masses = [
-        F.adaptive_avg_pool2d((image - blank).abs(), grid).flatten(0, 1)  # (B·3, grid, grid)
-        for image in (canvas, target)
-    ]
+    masses = [F.adaptive_avg_pool2d((image - blank).abs(), grid).flatten(0, 1)  # (B·3, grid, grid)
+              for image in (canvas, target)]
     return sinkhorn(*masses, eps=eps, iters=iters).mean()

@@ -8,7 +8,6 @@ from typing import Mapping
 from PIL import Image
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from tensorboard.compat.proto.summary_pb2 import Summary
-import torch
 from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
 from torch.utils.tensorboard.summary import hparams
@@ -19,18 +18,10 @@ from nsp.painter.painter import Callback, Painter
 
 
 class TensorBoard(Callback):
-    """A painting's TensorBoard, on one step axis, the optimizer's steps (counted over all levels):
-
-    - ``loss/<term>`` per step (the paper's Fig. 7 curves); ``loss/total`` only beside two terms
-      or more (alone, it would repeat its one term);
-    - per level, ``level/psnr`` of everything painted so far against the target, and that canvas
-      at the target's size;
-    - ``target`` once, and the run's settings beside its final scores in HPARAMS (:meth:`log_run`).
-
-    Args:
-        writer: the run's writer.
-        target: (3, H, W) in [0, 1], the image the strokes are fitted to.
-    """
+    """A painting's TensorBoard, on one step axis, the optimizer's steps over all levels: ``loss/<term>``
+    per step (the paper's Fig. 7 curves; ``loss/total`` only beside two terms or more); per level,
+    ``level/psnr`` of the canvas so far against ``target`` (3, H, W) in [0, 1], and that canvas;
+    ``target`` once; and the run's settings beside its final scores in HPARAMS (:meth:`log_run`)."""
 
     def __init__(self, writer: SummaryWriter, target: Tensor):
         self.writer, self.target, self.step = writer, target, 0
@@ -57,15 +48,14 @@ class TensorBoard(Callback):
         self.writer.flush()
 
     def _picture(self, tag: str, image: Tensor, step: int) -> None:
-        """``add_image`` of (3, H, W) in [0, 1], as a JPEG (quality 90): a level's canvas at 256 px
-        costs the painter 3 ms, where add_image's PNG cost 15 ms (compression level 6; level 1
-        makes 4× the bytes, which the writer checksums in pure Python, 0.12 µs a byte)."""
+        """``add_image`` of (3, H, W) in [0, 1] as a JPEG (quality 90): add_image's PNG costs the painter
+        5× the time (its compression, and the writer's pure-Python checksum of its bytes)."""
         pixels = to_uint8(image)  # (H, W, 3)
         encoded = io.BytesIO()
         Image.fromarray(pixels).save(encoded, format="JPEG", quality=90)
         picture = Summary.Image(height=pixels.shape[0], width=pixels.shape[1], colorspace=3,
                                 encoded_image_string=encoded.getvalue())
-        self.writer._get_file_writer().add_summary(Summary(value=[Summary.Value(tag=tag, image=picture)]), step)
+        self.writer.file_writer.add_summary(Summary(value=[Summary.Value(tag=tag, image=picture)]), step)
 
     def log_run(self, settings: Mapping[str, str | int | float], scores: Mapping[str, float]) -> None:
         """``final/<score>`` at the last step and the HPARAMS entry: ``settings`` beside those scores."""
@@ -73,7 +63,7 @@ class TensorBoard(Callback):
             self.writer.add_scalar(f"final/{name}", value, self.step)
         # SummaryWriter.add_hparams would write them into a run dir of their own, and log each score again
         for summary in hparams(dict(settings), {f"final/{name}": 0.0 for name in scores}):
-            self.writer._get_file_writer().add_summary(summary)
+            self.writer.file_writer.add_summary(summary)
         self.writer.flush()
 
 
@@ -82,15 +72,8 @@ class ProgressBar(Callback):
     :attr:`seconds`, once its ``with`` block is done, the time the block took."""
 
     def __init__(self, total: int, enabled: bool = True, unit: str = "strokes"):
-        self.progress = Progress(
-            TextColumn("{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn(unit),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            disable=not enabled,
-        )
+        self.progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn(unit),
+                                 TimeElapsedColumn(), TimeRemainingColumn(), disable=not enabled)
         self.task = self.progress.add_task("painting", total=total)
         self.level = 1
 

@@ -16,11 +16,8 @@ FAMILIES = {family.__name__: family for family in (DCGAN, DualPathway, PxlShuffl
 
 
 def build(config: Mapping[str, Any], brush: str) -> nn.Module:
-    """The renderer a ``renderer`` config node describes (``_target_``, ``size``, ``channel_mult``, …) for ``brush``.
-
-    ``_target_`` names the family (``nsp.renderers.DualPathway``); ``name`` (the config's own label)
-    is not an argument of the network. Needs no Hydra, so checkpoints load anywhere.
-    """
+    """The renderer a ``renderer`` config node describes for ``brush``: ``_target_`` names the family
+    (``nsp.renderers.DualPathway``); the other keys but ``name`` (the config's own label) are its arguments."""
     check_size(config["size"])
     family = str(config["_target_"]).rsplit(".", 1)[-1]
     if family not in FAMILIES:

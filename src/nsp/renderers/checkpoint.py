@@ -12,8 +12,8 @@ from nsp.renderers import build
 
 
 def read_checkpoint(path, map_location="cpu") -> dict:
-    """A checkpoint of ``python -m nsp.train`` as saved; raises ``ValueError`` (one line) for a file
-    that is missing or is not one (truncated, another program's)."""
+    """A checkpoint of ``python -m nsp.train`` as saved; :class:`BadInput` (one line) for a file that is
+    missing or is not one (truncated, another program's)."""
     if not Path(path).is_file():
         raise BadInput(f"renderer checkpoint {path} does not exist")
     try:
@@ -48,11 +48,8 @@ def checkpoint_brush(path) -> str:
 
 
 def load_renderer(path, map_location="cpu") -> tuple[nn.Module, str, int]:
-    """The renderer saved in a checkpoint of ``python -m nsp.train``, in eval mode, its brush and size.
-
-    Raises :class:`BadInput` for a file that is not such a checkpoint, or whose weights do not fit
-    the renderer its settings describe (an edited or foreign file).
-    """
+    """The renderer saved in a checkpoint of ``python -m nsp.train``, in eval mode, its brush and size;
+    :class:`BadInput` for a file that is not one, or whose weights do not fit the renderer it describes."""
     ckpt = read_checkpoint(path, map_location)
     config, brush = ckpt["hyper_parameters"]["renderer"], ckpt["hyper_parameters"]["brush"]
     prefix = "renderer."

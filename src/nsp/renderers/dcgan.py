@@ -9,11 +9,9 @@ from __future__ import annotations
 
 import math
 
-import torch
 from torch import Tensor, nn
 
-from nsp.brushes import get_brush
-from nsp.renderers.common import centred, channels, check_size
+from nsp.renderers.common import OneNetwork, centred, channels, check_size
 
 PAPER_CHANNELS = (512, 512, 256, 128, 64)  # C1..C5; C6 is the output layer
 
@@ -28,11 +26,8 @@ class ShadingNetwork(nn.Module):
         layers: list[nn.Module] = []
         for i, (c_in, c_out) in enumerate(zip([in_features, *hidden], hidden)):
             first = i == 0  # C1 turns the 1×1 input into 4×4; the others double the resolution
-            layers += [
-                nn.ConvTranspose2d(c_in, c_out, 4, 1 if first else 2, 0 if first else 1, bias=False),
-                nn.BatchNorm2d(c_out),
-                nn.ReLU(inplace=True),
-            ]
+            layers += [nn.ConvTranspose2d(c_in, c_out, 4, 1 if first else 2, 0 if first else 1, bias=False),
+                       nn.BatchNorm2d(c_out), nn.ReLU(inplace=True)]
         layers.append(nn.ConvTranspose2d(hidden[-1], out_channels, 4, 2, 1))
         self.layers = nn.Sequential(*layers)
 
@@ -40,17 +35,7 @@ class ShadingNetwork(nn.Module):
         return self.layers(centred(x)[:, :, None, None])
 
 
-class DCGAN(nn.Module):
-    """DCGAN-G renderer: all stroke parameters -> foreground and alpha from one transposed-conv stack.
+class DCGAN(OneNetwork):
+    """DCGAN-G renderer: ``(B, d) -> (B, 3, S, S), (B, 1, S, S)`` from one transposed-conv stack."""
 
-    ``(B, d) -> (B, 3, S, S), (B, 1, S, S)``, both in [0, 1].
-    """
-
-    def __init__(self, brush: str, size: int = 128, channel_mult: float = 1.0):
-        super().__init__()
-        self.size = size
-        self.net = ShadingNetwork(get_brush(brush).d, 4, size, channel_mult)
-
-    def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:
-        out = torch.sigmoid(self.net(x))
-        return out[:, :3], out[:, 3:]
+    network = ShadingNetwork

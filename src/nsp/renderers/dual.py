@@ -1,14 +1,14 @@
 """The paper's dual-pathway renderer (§3.2) and its one-pathway ablations (Table 1).
 
-The rasterization pathway G_r (the PxlShuffleNet) sees the shape parameters only and draws the
-silhouette; the shading pathway G_s (the DCGAN-G) sees all parameters and paints the colour map.
-Foreground s = colour · support and alpha α = A · coverage, with A the brush's transparency (1 for
-opaque brushes), so colour and transparency cannot leak into the shape.
+The rasterization pathway G_r (PxlShuffleNet) sees the shape parameters only and draws the silhouette;
+the shading pathway G_s (DCGAN-G) sees all parameters and paints the colour map. Foreground
+s = colour · support and alpha α = A · coverage, A the brush's transparency (1 if opaque), so colour and
+transparency cannot leak into the shape.
 
-Unlike the paper's one-channel silhouette, G_r draws two: the stroke's *support* (where the vector
-engine puts colour, a hard edge) and its *coverage* (the antialiased, for oil paint textured, alpha
-divided by A). With a single silhouette s = colour · coverage differs from the engine's foreground
-on every antialiased edge pixel, which alone caps PSNR(s) near 22 dB at 32 px and 28 dB at 128 px.
+Unlike the paper's one silhouette, G_r draws two: the *support* (where the engine puts colour, a hard
+edge) and the *coverage* (the antialiased, for oil textured, alpha / A). With one, s = colour · coverage
+misses the engine's foreground on every antialiased edge pixel, which alone caps PSNR(s) near 22 dB at
+32 px and 28 dB at 128 px.
 """
 from __future__ import annotations
 
@@ -42,9 +42,7 @@ class DualPathway(nn.Module):
         if not pathways or not set(pathways) <= set(PATHWAYS):
             raise BadInput(f"pathways must be a non-empty subset of {list(PATHWAYS)}, got {list(pathways)}")
         spec = get_brush(brush)
-        self.size = size
-        self.shape_index = list(spec.shape)
-        self.alpha_index = spec.alpha
+        self.size, self.shape_index, self.alpha_index = size, list(spec.shape), spec.alpha
         self.rasterization = self.shading = None
         if len(set(pathways)) == 2:
             self.rasterization = RasterizationNetwork(len(spec.shape), 2, size, channel_mult)
@@ -61,8 +59,7 @@ class DualPathway(nn.Module):
             support, coverage = torch.sigmoid(self.rasterization(x[:, self.shape_index])).split(1, 1)
             return colour, support, coverage
         net = self.rasterization if self.rasterization is not None else self.shading
-        colour, support, coverage = torch.sigmoid(net(x)).split([3, 1, 1], 1)
-        return colour, support, coverage
+        return torch.sigmoid(net(x)).split([3, 1, 1], 1)
 
     def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:
         colour, support, coverage = self.maps(x)

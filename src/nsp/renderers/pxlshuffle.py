@@ -9,11 +9,9 @@ from __future__ import annotations
 
 import math
 
-import torch
 from torch import Tensor, nn
 
-from nsp.brushes import get_brush
-from nsp.renderers.common import centred, channels, check_size
+from nsp.renderers.common import OneNetwork, centred, channels, check_size
 
 PAPER_FEATURES = (512, 1024, 2048)  # F1..F3; F4 is the 16×16 view
 PAPER_STAGES = ((32, 8), (16, 4), (8, 1))  # per stage: conv filters, channels after the shuffle
@@ -38,12 +36,8 @@ class RasterizationNetwork(nn.Module):
         convs: list[nn.Module] = []
         c_in = self.view
         for a, b in stages:
-            convs += [
-                nn.Conv2d(c_in, a, 3, padding=1),
-                nn.ReLU(inplace=True),
-                nn.Conv2d(a, 4 * b, 3, padding=1),
-                nn.PixelShuffle(2),  # 4·b channels at R×R -> b at 2R×2R
-            ]
+            convs += [nn.Conv2d(c_in, a, 3, padding=1), nn.ReLU(inplace=True),
+                      nn.Conv2d(a, 4 * b, 3, padding=1), nn.PixelShuffle(2)]  # 4·b channels at R×R -> b at 2R×2R
             c_in = b
         self.convs = nn.Sequential(*convs)
 
@@ -51,17 +45,7 @@ class RasterizationNetwork(nn.Module):
         return self.convs(self.fc(centred(x)).view(-1, self.view, 16, 16))
 
 
-class PxlShuffleNet(nn.Module):
-    """PxlShuffleNet renderer: all stroke parameters -> foreground and alpha.
+class PxlShuffleNet(OneNetwork):
+    """PxlShuffleNet renderer: ``(B, d) -> (B, 3, S, S), (B, 1, S, S)`` from one fully connected + shuffle network."""
 
-    ``(B, d) -> (B, 3, S, S), (B, 1, S, S)``, both in [0, 1].
-    """
-
-    def __init__(self, brush: str, size: int = 128, channel_mult: float = 1.0):
-        super().__init__()
-        self.size = size
-        self.net = RasterizationNetwork(get_brush(brush).d, 4, size, channel_mult)
-
-    def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:
-        out = torch.sigmoid(self.net(x))
-        return out[:, :3], out[:, 3:]
+    network = RasterizationNetwork

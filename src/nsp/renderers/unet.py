@@ -27,23 +27,14 @@ class UNet(nn.Module):
         self.down = nn.ModuleList()
         for i, (c_in, c_out) in enumerate(zip([get_brush(brush).d, *widths], widths)):
             norm = 0 < i < depth - 1  # no BN on the input layer nor on the 1×1 bottleneck
-            self.down.append(
-                nn.Sequential(
-                    nn.Conv2d(c_in, c_out, 4, 2, 1, bias=not norm),
-                    nn.BatchNorm2d(c_out) if norm else nn.Identity(),
-                    nn.LeakyReLU(0.2, inplace=True),
-                )
-            )
+            self.down.append(nn.Sequential(nn.Conv2d(c_in, c_out, 4, 2, 1, bias=not norm),
+                                           nn.BatchNorm2d(c_out) if norm else nn.Identity(),
+                                           nn.LeakyReLU(0.2, inplace=True)))
         self.up = nn.ModuleList()
         for i in range(depth - 1, 0, -1):
             c_in = widths[i] if i == depth - 1 else 2 * widths[i]  # the bottleneck has no skip yet
-            self.up.append(
-                nn.Sequential(
-                    nn.ConvTranspose2d(c_in, widths[i - 1], 4, 2, 1, bias=False),
-                    nn.BatchNorm2d(widths[i - 1]),
-                    nn.ReLU(inplace=True),
-                )
-            )
+            self.up.append(nn.Sequential(nn.ConvTranspose2d(c_in, widths[i - 1], 4, 2, 1, bias=False),
+                                         nn.BatchNorm2d(widths[i - 1]), nn.ReLU(inplace=True)))
         self.out = nn.ConvTranspose2d(2 * widths[0], 4, 4, 2, 1)
 
     def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:

@@ -18,33 +18,23 @@ from nsp.errors import BadInput
 
 FAILED = "failed"
 NOT_RUN = "not run"
+YAML_ERRORS = (OSError, ValueError, yaml.YAMLError, OmegaConfBaseException)
 
 
 @dataclass
 class Job:
-    """One job of a multirun.
+    """One job of a multirun."""
 
-    Attributes:
-        num: Hydra's job number; for a single run's dir (no number), the dir's name.
-        path: the job's output dir.
-        overrides: key -> value, from ``.hydra/overrides.yaml`` (``+``/``++`` prefixes dropped).
-        metrics: the job's ``metrics.json``; empty when it wrote none.
-        status: ``metrics["status"]`` if given, ``completed`` if not; ``failed`` without ``metrics.json``.
-        curves: TensorBoard scalar tag -> [(step, value)], by step, the last value of a repeated step.
-        error: why the job failed, where known (``metrics["error"]``, or an unreadable ``metrics.json``).
-    """
-
-    num: int | str
-    path: Path
-    overrides: dict[str, str]
-    metrics: dict = field(default_factory=dict)
-    status: str = FAILED
-    curves: dict[str, list[tuple[int, float]]] = field(default_factory=dict)
-    error: str | None = None
+    num: int | str  # Hydra's job number; for a single run's dir (no number), the dir's name
+    path: Path  # the job's output dir
+    overrides: dict[str, str]  # key -> value, from .hydra/overrides.yaml (+/++ prefixes dropped)
+    metrics: dict = field(default_factory=dict)  # its metrics.json; empty when it wrote none
+    status: str = FAILED  # metrics["status"] if given, else completed; failed without metrics.json
+    curves: dict[str, list[tuple[int, float]]] = field(default_factory=dict)  # TensorBoard tag -> [(step, value)]
+    error: str | None = None  # why the job failed, where known (metrics["error"], an unreadable metrics.json)
 
     def choice(self, key: str):
-        """The value of ``key`` this job ran with: its override, else what its metrics record under the
-        key or its last part (``lr`` for ``model.optimizer.lr``)."""
+        """Its override of ``key``, else its metric ``key`` or its last part (``lr`` of ``model.optimizer.lr``)."""
         return self.overrides.get(key, self.metrics.get(key, self.metrics.get(key.rsplit(".", 1)[-1])))
 
 
@@ -53,9 +43,8 @@ def is_job(path: Path) -> bool:
 
 
 def read_job(path: Path) -> Job:
-    """The job in ``path`` (a dir with ``.hydra/overrides.yaml``). What cannot be read is left out and
-    said in ``error``: overrides that are not ``key=value`` lines, a ``metrics.json`` that is not a
-    JSON object, metric values that are neither text nor a number a float holds."""
+    """The job in ``path``; what cannot be read (overrides not ``key=value`` lines, a ``metrics.json`` not a
+    JSON object, metric values neither text nor a number a float holds) is left out and said in ``error``."""
     overrides = read_overrides(path / ".hydra" / "overrides.yaml")
     job = Job(num=job_number(path), path=path, overrides=overrides or {}, curves=read_curves(path))
     if overrides is None:
@@ -69,7 +58,9 @@ def read_job(path: Path) -> Job:
         if not isinstance(metrics, dict):
             job.error = f"{path.name}/metrics.json is not valid JSON (a job killed while writing it?)"
             return job
-        job.metrics = {key: value for key, value in metrics.items() if readable(value)}
+        # what the report can show: text, a bool, or a number a float holds
+        job.metrics = {key: value for key, value in metrics.items() if isinstance(value, (str, bool, float))
+                       or (isinstance(value, int) and abs(value) < 2 ** 1023)}
         status, error = job.metrics.get("status", "completed"), job.metrics.get("error")
         job.status = status if isinstance(status, str) else FAILED
         job.error = error if isinstance(error, str) else job.error
@@ -79,19 +70,12 @@ def read_job(path: Path) -> Job:
     return job
 
 
-def readable(value) -> bool:
-    """A metric value the report can show: text, a bool, or a number a float holds."""
-    if isinstance(value, (str, bool, float)):
-        return True
-    return isinstance(value, int) and abs(value) < 2 ** 1023
-
-
 def read_overrides(path: Path) -> dict[str, str] | None:
-    """``key -> value`` of Hydra's ``overrides.yaml`` (one ``key=value`` line per override, sweeps
-    already expanded, ``+``/``++`` dropped); None when it is not such a list."""
+    """``key -> value`` of Hydra's ``overrides.yaml`` (sweeps expanded, ``+``/``++`` dropped); None
+    when it is not a list of ``key=value`` lines."""
     try:
         lines = OmegaConf.to_container(OmegaConf.load(path))
-    except (OSError, ValueError, yaml.YAMLError, OmegaConfBaseException):
+    except YAML_ERRORS:
         return None
     if not isinstance(lines, list) or not all(isinstance(line, str) and "=" in line for line in lines):
         return None
@@ -99,11 +83,10 @@ def read_overrides(path: Path) -> dict[str, str] | None:
 
 
 def job_number(path: Path) -> int | str:
-    """Hydra's job number from ``.hydra/hydra.yaml``; the dir's name for a single run, or where the
-    file is missing or holds no number."""
+    """Hydra's job number from ``.hydra/hydra.yaml``; the dir's name where it holds none (a single run)."""
     try:
         num = OmegaConf.select(OmegaConf.load(path / ".hydra" / "hydra.yaml"), "hydra.job.num", default=None)
-    except (OSError, ValueError, yaml.YAMLError, OmegaConfBaseException):
+    except YAML_ERRORS:
         return path.name
     return num if isinstance(num, int) and not isinstance(num, bool) else path.name
 
@@ -122,11 +105,8 @@ def read_curves(path: Path) -> dict[str, list[tuple[int, float]]]:
 
 
 def collect(sweep: Path) -> list[Job]:
-    """The jobs in ``sweep``: a multirun's jobs by job number (other run dirs after them, by name), or
-    the one run when ``sweep`` is itself a run's dir.
-
-    Raises ``ValueError`` naming ``sweep`` when it holds no job.
-    """
+    """The jobs in ``sweep`` by job number (other run dirs after them, by name), those planned but
+    never begun included; or the one run when ``sweep`` is a run's dir. Raises BadInput when it holds none."""
     if not sweep.is_dir():
         raise BadInput(f"{sweep} is not a directory; expected a Hydra multirun dir (job dirs with .hydra/overrides.yaml)")
     if is_job(sweep):
@@ -142,10 +122,9 @@ def collect(sweep: Path) -> list[Job]:
 
 
 def planned_jobs(sweep: Path) -> list[list[str]]:
-    """Each job's overrides (``key=value``), by job number, as the multirun planned them in its
-    ``multirun.yaml``, so jobs of an aborted sweep that never began are listed too; [] if unknown.
-    The order is Hydra's basic sweeper's: every combination, the last key varying fastest, a key
-    of the command line taking the place of the sweeper's ``params`` entry it overrides."""
+    """Each job's overrides (``key=value``) by job number, as ``multirun.yaml`` planned them; [] if
+    unknown. In the basic sweeper's order: every combination, the last key varying fastest, a key of
+    the command line replacing the sweeper's ``params`` entry it overrides."""
     try:
         config = OmegaConf.load(sweep / "multirun.yaml")
         params = [f"{key}={value}" for key, value in (config.hydra.sweeper.get("params") or {}).items()]
@@ -160,10 +139,7 @@ def planned_jobs(sweep: Path) -> list[list[str]]:
 
 
 def latest_sweep(root: Path) -> Path:
-    """The most recently started multirun under ``root`` (``root/<name>/<sweep>/`` holding job dirs).
-
-    Raises ``ValueError`` naming ``root`` when it holds none.
-    """
+    """The most recently started multirun under ``root`` (``root/<name>/<sweep>/`` holding job dirs)."""
     sweeps = [p for p in root.glob("*/*") if p.is_dir() and any(is_job(job) for job in p.iterdir() if job.is_dir())]
     if not sweeps:
         raise BadInput(f"{root} holds no multirun; give the sweep dir: python -m nsp.report multirun/<name>/<time>")

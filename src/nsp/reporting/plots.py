@@ -1,11 +1,7 @@
-"""Plots of a multirun, a panel per brush and a line or bar per setting (its swept choices but the
-seed, named ``key=value``):
-
-- curves: every TensorBoard scalar that some job logged at two steps or more (validation scores at
-  one, marked), the mean over seeds with their range shaded;
-- bars: the headline metric at the end, mean over seeds with ± std error bars, drawn for every sweep
-  that has one (so a sweep too short for curves still gets a picture).
-"""
+"""Plots of a multirun, a panel per brush and a line or bar per setting (its swept choices but the seed,
+as ``key=value``): every TensorBoard scalar some job logged at two steps or more (validation scores at
+one, marked), mean over seeds with their range shaded; and bars of the headline metric at the end, mean
+± std over seeds, so a sweep too short for curves still gets a picture."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,19 +10,19 @@ import matplotlib
 
 matplotlib.use("Agg")  # files only: no display on clusters or in tests
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 import numpy as np  # noqa: E402
 
 from nsp.reporting.collect import Job, swept_keys  # noqa: E402
-from nsp.reporting.tables import (  # noqa: E402
-    PANEL, group_keys, headline, is_painting_study, label, painting_scores, stat,
-)
+from nsp.reporting.tables import (PANEL, choices, group_keys, headline, is_painting_study, label,  # noqa: E402
+                                  painting_scores, stat)
 
 SKIPPED = {"epoch"}  # Lightning's bookkeeping, not a measurement
 
 
 def panels(jobs: list[Job]) -> list:
     """The brushes when they are swept (one panel each), else one panel (None)."""
-    return list(dict.fromkeys(job.choice(PANEL) for job in jobs)) if PANEL in swept_keys(jobs) else [None]
+    return choices(jobs, PANEL) if PANEL in swept_keys(jobs) else [None]
 
 
 def settings(jobs: list[Job], panel) -> dict[str, list[Job]]:
@@ -39,23 +35,18 @@ def settings(jobs: list[Job], panel) -> dict[str, list[Job]]:
 
 
 def curve_tags(jobs: list[Job]) -> list[str]:
-    """Scalar tags with at least two points in some job, and the validation scores however few (a short
-    run validates once); other single points are final values, in the tables."""
+    """Scalar tags with two points or more in some job, and validation scores however few (a short run
+    validates once); other single points are final values, in the tables."""
     tags = dict.fromkeys(tag for job in jobs for tag, points in job.curves.items()
                          if len(points) > 1 or (points and tag.startswith("val/")))
     return [tag for tag in tags if tag not in SKIPPED]
 
 
-def figure(count: int):
-    fig, axes = plt.subplots(1, count, figsize=(5 * count, 3.6), squeeze=False, sharey=True)
-    return fig, axes[0]
-
-
-def plot_tag(jobs: list[Job], tag: str, path: Path) -> None:
-    """``tag`` against step, a line per setting (mean over its seeds, range shaded), saved to ``path``."""
+def plot_tag(jobs: list[Job], tag: str) -> Figure:
+    """``tag`` against step, a line per setting (mean over its seeds, range shaded)."""
     columns = panels(jobs)
-    fig, axes = figure(len(columns))
-    for ax, panel in zip(axes, columns):
+    fig, axes = plt.subplots(1, len(columns), figsize=(5 * len(columns), 3.6), squeeze=False, sharey=True)
+    for ax, panel in zip(axes[0], columns):
         for name, group in settings(jobs, panel).items():
             runs = [{step: value for step, value in job.curves[tag] if np.isfinite(value)} for job in group if tag in job.curves]
             if not runs:
@@ -67,19 +58,15 @@ def plot_tag(jobs: list[Job], tag: str, path: Path) -> None:
                             linestyle="-" if complete else "--", marker="o" if len(steps) < 3 else None)
             if len(runs) > 1:
                 ax.fill_between(steps, values.min(0), values.max(0), color=line.get_color(), alpha=0.2, linewidth=0)
-        ax.set_title(f"{PANEL}={panel}" if panel is not None else tag)
-        ax.set_xlabel("step")
+        ax.set(title=f"{PANEL}={panel}" if panel is not None else tag, xlabel="step")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    axes[0].set_ylabel(tag)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    axes[0][0].set_ylabel(tag)
+    return fig
 
 
-def plot_bars(jobs: list[Job], metric: str, path: Path) -> None:
-    """Final ``metric`` per setting as horizontal bars (mean over seeds, ± std error bars), a panel per
-    brush, saved to ``path``."""
+def plot_bars(jobs: list[Job], metric: str) -> Figure:
+    """Final ``metric`` per setting as horizontal bars (mean ± std over seeds)."""
     columns = panels(jobs)
     names = list(dict.fromkeys(name for panel in columns for name in settings(jobs, panel)))
     fig, axes = plt.subplots(1, len(columns), figsize=(4.5 * len(columns) + 2, 0.8 + 0.32 * len(names)),
@@ -94,9 +81,8 @@ def plot_bars(jobs: list[Job], metric: str, path: Path) -> None:
         for y, (mean, error) in enumerate(zip(means, errors)):
             if np.isfinite(mean):
                 ax.text(mean + error, y, f" {mean:.2f}", va="center", fontsize=7)
-        ax.set_title(f"{PANEL}={panel}" if panel is not None else metric)
+        ax.set(title=f"{PANEL}={panel}" if panel is not None else metric, xlabel=f"{metric} (mean ± std over seeds)")
         ax.grid(alpha=0.3, axis="x")
-        ax.set_xlabel(f"{metric} (mean ± std over seeds)")
         if np.isfinite(means).any():
             low, high = min(low, np.nanmin(means)), max(high, np.nanmax(means + errors))
     axes[0][0].set_yticks(range(len(names)), names, fontsize=8)
@@ -104,12 +90,10 @@ def plot_bars(jobs: list[Job], metric: str, path: Path) -> None:
     if np.isfinite(high):  # bars from zero, so their lengths compare; the numbers beside them tell the gaps
         for ax in axes[0]:
             ax.set_xlim(min(0.0, low), 1.15 * high if high > 0 else None)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return fig
 
 
-def plot_painting_study(jobs: list[Job], path: Path) -> None:
+def plot_painting_study(jobs: list[Job]) -> Figure:
     """Renderer test PSNR against painting PSNR, a panel per brush: a point per checkpoint and stroke
     budget (its painting PSNR the mean over photos), the analytic renderer a dashed line per budget."""
     brushes = list(dict.fromkeys(job.metrics["brush"] for job in jobs if "brush" in job.metrics))
@@ -129,27 +113,26 @@ def plot_painting_study(jobs: list[Job], path: Path) -> None:
             points = [(s["renderer_psnr"], s["psnr"]) for s in seeds.values() if "renderer_psnr" in s]
             color = f"C{renderers.index(renderer)}"
             ax.scatter(*zip(*points), marker=marker, color=color, label=f"{renderer}, {budget} strokes")
-        ax.set_title(f"{PANEL}={brush}")
-        ax.set_xlabel("renderer test PSNR (dB)")
+        ax.set(title=f"{PANEL}={brush}", xlabel="renderer test PSNR (dB)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     axes[0][0].set_ylabel("painting PSNR (dB), mean over photos")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return fig
 
 
 def plot_all(jobs: list[Job], out: Path) -> list[Path]:
-    """Every curve's ``<tag>.png`` and the headline's ``final_<metric>.png`` (``/`` as ``_``) in ``out``,
-    for a renderer → painting study its ``renderer_vs_painting.png`` instead; returns the files written."""
+    """Write every curve's ``<tag>.png`` and the headline's ``final_<metric>.png`` (``/`` as ``_``) into
+    ``out``, a renderer → painting study's ``renderer_vs_painting.png`` instead; returns the files."""
     if is_painting_study(jobs):  # its paintings' own curves (loss per step, one a job) would be hundreds of lines
-        plot_painting_study(jobs, out / "renderer_vs_painting.png")
-        return [out / "renderer_vs_painting.png"]
-    paths = []
-    for tag in curve_tags(jobs):
-        paths.append(out / f"{tag.replace('/', '_')}.png")
-        plot_tag(jobs, tag, paths[-1])
+        return [save(plot_painting_study(jobs), out / "renderer_vs_painting.png")]
+    paths = [save(plot_tag(jobs, tag), out / f"{tag.replace('/', '_')}.png") for tag in curve_tags(jobs)]
     if metric := headline(jobs):
-        paths.append(out / f"final_{metric.replace('/', '_')}.png")
-        plot_bars(jobs, metric, paths[-1])
+        paths.append(save(plot_bars(jobs, metric), out / f"final_{metric.replace('/', '_')}.png"))
     return paths
+
+
+def save(fig: Figure, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

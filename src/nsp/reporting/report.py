@@ -5,25 +5,20 @@ from collections import Counter
 from pathlib import Path
 
 from nsp.errors import BadInput
-from nsp.reporting.collect import Job, collect, common_overrides, latest_sweep, swept_keys
+from nsp.reporting.collect import Job, collect, common_overrides, swept_keys
 from nsp.reporting.plots import plot_all
-from nsp.reporting.tables import (
-    SEED, chosen_rates, headline, is_painting_study, is_renderer_sweep, job_rows, margins, painting_table, pivot,
-    shown_jobs, to_csv, to_markdown,
-)
+from nsp.reporting.tables import (SEED, chosen_rates, headline, is_painting_study, is_renderer_sweep, job_rows,
+                                  margins, painting_table, pivot, shown_jobs, to_csv, to_markdown)
+from nsp.text import counted
 
 
 def write_report(sweep: Path) -> list[Path]:
     """Write ``report.md``, ``report.csv`` and the plots of the runs in ``sweep`` (a multirun's sweep
-    dir, a folder of run dirs, or one run's dir) into it.
-
-    Returns the files written. Raises :class:`BadInput` when ``sweep`` holds no Hydra job or cannot
-    be written into (read-only, full).
-    """
+    dir, a folder of run dirs, or one run's dir) into it; returns the files written. Raises
+    :class:`BadInput` when ``sweep`` holds no Hydra job or cannot be written into (read-only, full)."""
     jobs = collect(sweep)
-    header, rows = job_rows(jobs)
     try:
-        (sweep / "report.csv").write_text(to_csv(header, rows))
+        (sweep / "report.csv").write_text(to_csv(*job_rows(jobs)))
         plots = plot_all(jobs, sweep)
         (sweep / "report.md").write_text(markdown(sweep, jobs, plots))
     except OSError as error:
@@ -37,7 +32,7 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
     the chosen learning rates; the plots."""
     statuses = Counter(job.status for job in jobs)
     counts = ", ".join(f"{n} {status}" for status, n in sorted(statuses.items(), key=lambda item: (item[0] != "completed", -item[1])))
-    lines = [f"# Report: {sweep.name}", "", f"{len(jobs)} job{'s' * (len(jobs) != 1)}: {counts}."]
+    lines = [f"# Report: {sweep.name}", "", f"{counted(len(jobs), 'job')}: {counts}."]
     header, rows, shared = shown_jobs(jobs)
     if common := common_overrides(jobs) | shared:
         lines += ["", "Every job: " + " ".join(f"`{key}={value}`" for key, value in common.items())]

@@ -1,7 +1,6 @@
-"""Tables of a multirun: one row per job (CSV, and markdown without the columns every job shares)
-and, for renderer sweeps, the study's pivot (renderer × brush, mean ± std over seeds, beside the
-paper's numbers), dual's margin over every other renderer, and, for learning-rate studies, the rate
-each renderer gets."""
+"""Tables of a multirun: a row per job (CSV; markdown without the columns every job shares) and, for
+renderer sweeps, the renderer × brush pivot beside the paper's numbers, dual's margin over every other
+renderer and, for learning-rate studies, the rate each renderer gets."""
 from __future__ import annotations
 
 import csv
@@ -23,13 +22,15 @@ LR = "model.optimizer.lr"
 PANEL = "brush"  # a pivot's columns, a plot's panels
 SEED = "seed"  # repeats of one setting: pooled into mean ± std
 DUAL = "dual"
+RENDERERS = ("dcgan", "pxlshuffle", "unet", "dual_raster", "dual_shading", "dual", "analytic")  # the paper's order, the untrained last
+STUDY_RENDERER = "task.renderer"  # experiment=renderer_painting's swept renderer: a checkpoint, or analytic:BRUSH
 # How report.md writes a metric, by a word of its name (``val/psnr_fg``: psnr); other fractions .3f.
 FORMATS = {"psnr": ".2f", "ssim": ".4f", "iou": ".3f", "seconds": ".1f", "lr": "g"}
 
 
 @dataclass
 class Stat:
-    """A metric over the completed jobs of one setting (its seeds)."""
+    """A metric over the completed jobs of one setting (its seeds), written ``mean ± std`` (sample std)."""
 
     values: list[float]
 
@@ -39,20 +40,25 @@ class Stat:
 
     @property
     def std(self) -> float:
-        """Sample standard deviation; 0 for a single value."""
         return statistics.stdev(self.values) if len(self.values) > 1 else 0.0
 
-    def __str__(self) -> str:
-        return f"{self.mean:.2f} ± {self.std:.2f}" if len(self.values) > 1 else f"{self.mean:.2f}"
+    def __format__(self, spec: str) -> str:
+        """Mean and std in ``spec`` (default ``.2f``), the mean alone for a single value."""
+        spec = spec or ".2f"
+        return f"{self.mean:{spec}} ± {self.std:{spec}}" if len(self.values) > 1 else format(self.mean, spec)
+
+
+def choices(jobs: list[Job], key: str) -> list:
+    """The values of ``key`` the jobs ran with, in first-seen order."""
+    return list(dict.fromkeys(job.choice(key) for job in jobs))
 
 
 def metric_keys(jobs: list[Job]) -> list[str]:
     """Numeric metrics any job recorded, in first-seen order; text (the brush's name, the status) has
     its own columns, and swept values theirs (``seed``, ``lr`` of ``model.optimizer.lr``)."""
     swept = {key.rsplit(".", 1)[-1] for key in swept_keys(jobs)}
-    keys = dict.fromkeys(
-        key for job in jobs for key, value in job.metrics.items() if isinstance(value, Number) and not isinstance(value, bool)
-    )
+    keys = dict.fromkeys(key for job in jobs for key, value in job.metrics.items()
+                         if isinstance(value, Number) and not isinstance(value, bool))
     return [key for key in keys if key not in swept]
 
 
@@ -65,13 +71,9 @@ def job_rows(jobs: list[Job]) -> tuple[list[str], list[list]]:
 
 
 def shown_jobs(jobs: list[Job]) -> tuple[list[str], list[list], dict[str, str]]:
-    """The job table as report.md shows it, each metric in its format, and the metrics it leaves out
-    (name -> value, for the "Every job" line) but those an override already names (``seed``, ``lr``
-    of ``model.optimizer.lr``, ``steps`` equal to ``trainer.max_steps``).
-
-    Left out: a status every job shares (the count of jobs says it) and, given two jobs or more, a
-    metric every job shares.
-    """
+    """The job table as report.md shows it, each metric in its format, less a status every job shares
+    and, given two jobs or more, a metric every job shares; and those metrics (name -> value, for the
+    "Every job" line) but ones an override names already (``seed``, ``steps`` of ``trainer.max_steps``)."""
     header, rows = job_rows(jobs)
     metrics, overridden = set(metric_keys(jobs)), {key.rsplit(".", 1)[-1] for job in jobs for key in job.overrides}
     overridden |= {metric for metric in metrics for job in jobs for key, value in job.overrides.items()  # steps of max_steps
@@ -120,9 +122,8 @@ def label(job: Job, keys: list[str]) -> str:
 def score(job: Job, metric: str) -> float | None:
     """``metric`` of a completed job as a float; None when it did not complete or has no such number."""
     value = job.metrics.get(metric)
-    if job.status != "completed" or not isinstance(value, Number) or isinstance(value, bool):
-        return None
-    return float(value)
+    usable = job.status == "completed" and isinstance(value, Number) and not isinstance(value, bool)
+    return float(value) if usable else None
 
 
 def stat(jobs: list[Job], metric: str) -> Stat | None:
@@ -137,11 +138,10 @@ def is_renderer_sweep(jobs: list[Job]) -> bool:
 
 def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
     """The study's table: a row per setting (renderer, lr, …), a column per brush, each cell the
-    headline metric as mean ± std over seeds (:func:`unfinished` when no job of it completed), with the
-    paper's figure beside a brush where the paper has any, and the learning rate each row used."""
-    metric, keys = headline(jobs), group_keys(jobs)
+    headline metric as mean ± std over seeds (else ``failed`` where a job failed, or the jobs' status:
+    ``not run``, a sweep to resume), the paper's figure beside a brush it has any for, and each row's lr."""
+    metric, keys, brushes = headline(jobs), group_keys(jobs), choices(jobs, PANEL)
     settings = list(dict.fromkeys(tuple(job.choice(k) for k in keys) for job in jobs))
-    brushes = list(dict.fromkeys(job.choice(PANEL) for job in jobs))
     with_paper = [b for b in brushes if any((job.choice("renderer"), b) in PAPER_PSNR for job in jobs)]
     show_lr = LR not in keys and any("lr" in job.metrics for job in jobs)
     header = [*keys, *(["lr"] if show_lr else [])]
@@ -155,8 +155,8 @@ def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
             row.append(", ".join(dict.fromkeys(str(number("lr", job.metrics["lr"])) for job in same if "lr" in job.metrics)) or None)
         for brush in brushes:
             cell = [job for job in same if job.choice(PANEL) == brush]
-            score = stat(cell, metric)
-            row.append(str(score) if score else (unfinished(cell) if cell else None))
+            score, statuses = stat(cell, metric), {job.status for job in cell}
+            row.append(f"{score}" if score else FAILED if FAILED in statuses else ", ".join(sorted(statuses)) or None)
             if brush in with_paper:
                 paper = PAPER_PSNR.get((dict(zip(keys, setting)).get("renderer"), brush))
                 row.append(None if paper is None else f"{paper:.2f}")
@@ -164,26 +164,14 @@ def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
     return header, rows
 
 
-def unfinished(cell: list[Job]) -> str:
-    """What a table cell whose jobs gave no score says: ``failed`` where one of them failed, else
-    their status (``interrupted``, ``not run``: a sweep still to be resumed)."""
-    statuses = {job.status for job in cell}
-    return FAILED if FAILED in statuses else ", ".join(sorted(statuses))
-
-
 def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
-    """Dual's margin over every other renderer per brush: the headline metric of dual minus theirs, as
-    mean ± std over the seeds both ran (the same seed draws the same training strokes, so the
-    difference is paired). None unless ``dual`` and another renderer were swept, and each renderer
-    ran one setting (other swept keys, if any, go with the renderer)."""
-    metric, keys = headline(jobs), group_keys(jobs)
-    settings = {tuple(job.choice(k) for k in keys) for job in jobs}
-    renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
-    if not is_renderer_sweep(jobs) or len(settings) != len(renderers):  # other keys vary within a renderer
+    """Dual's margin over every other renderer per brush: dual's headline metric minus theirs, mean ± std
+    over the seeds both ran (paired: a seed draws the same training strokes). None unless ``dual`` and
+    another renderer were swept, each with one setting (other swept keys go with the renderer)."""
+    metric, renderers, brushes = headline(jobs), choices(jobs, "renderer"), choices(jobs, PANEL)
+    settings = {tuple(job.choice(k) for k in group_keys(jobs)) for job in jobs}
+    if not is_renderer_sweep(jobs) or len(settings) != len(renderers) or DUAL not in renderers or len(renderers) < 2:
         return None
-    if DUAL not in renderers or len(renderers) < 2:
-        return None
-    brushes = list(dict.fromkeys(job.choice(PANEL) for job in jobs))
 
     def scores(renderer: str, brush: str) -> dict:
         return {job.choice(SEED): score(job, metric) for job in jobs if score(job, metric) is not None
@@ -195,7 +183,7 @@ def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
         for brush in brushes:
             dual, theirs = scores(DUAL, brush), scores(other, brush)
             paired = Stat([dual[s] - theirs[s] for s in dual if s in theirs])
-            row.append(("+" if paired.mean >= 0 else "") + str(paired) if paired.values else None)
+            row.append(f"{'+' if paired.mean >= 0 else ''}{paired}" if paired.values else None)
         rows.append(row)
     return header, rows
 
@@ -205,10 +193,9 @@ def chosen_rates(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
     (and seeds), and the rate with the best average. None unless ``renderer`` and the rate are swept."""
     if headline(jobs) != "val/psnr" or not {"renderer", LR} <= set(swept_keys(jobs)):
         return None
-    renderers = list(dict.fromkeys(job.choice("renderer") for job in jobs))
-    rates = sorted(dict.fromkeys(job.choice(LR) for job in jobs), key=rate_order)
+    rates = sorted(choices(jobs, LR), key=rate_order)
     header, rows = ["renderer", *(f"lr={rate}" for rate in rates), "chosen"], []
-    for renderer in renderers:
+    for renderer in choices(jobs, "renderer"):
         means, ran = {}, set()
         for rate in rates:
             cell = [job for job in jobs if (job.choice("renderer"), job.choice(LR)) == (renderer, rate)]
@@ -220,15 +207,17 @@ def chosen_rates(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
     return header, rows
 
 
-RENDERERS = ("dcgan", "pxlshuffle", "unet", "dual_raster", "dual_shading", "dual", "analytic")  # the paper's order, the untrained last
+def rate_order(rate) -> tuple:
+    """Rates by value; one that is not a number (a typo, none recorded) after them, by its text."""
+    try:
+        return 0, float(rate), ""
+    except (TypeError, ValueError):
+        return 1, 0.0, str(rate)
 
 
 def renderer_order(name: str) -> tuple:
     """Renderers in :data:`RENDERERS`' order; any other before the analytic one, by name."""
     return (RENDERERS.index(name) if name in RENDERERS else len(RENDERERS) - 1, name)
-
-
-STUDY_RENDERER = "task.renderer"  # experiment=renderer_painting's swept renderer: a checkpoint, or analytic:BRUSH
 
 
 def is_painting_study(jobs: list[Job]) -> bool:
@@ -253,18 +242,14 @@ def painting_table(jobs: list[Job], brush: str) -> tuple[list[str], list[list]]:
     """A row per renderer (the analytic one last): its test PSNR, then per stroke budget the painting's
     PSNR, SSIM and seconds, each the mean over photos, as mean ± std over training seeds."""
     scores = painting_scores(jobs, brush)
-    renderers = sorted({r for r, _ in scores}, key=renderer_order)
     budgets = sorted({b for _, b in scores})
     header = ["renderer", "test PSNR", *(f"{name} @{b}" for b in budgets for name in ("PSNR", "SSIM", "seconds"))]
 
     def cell(values: list[float], spec: str) -> str | None:
-        if not values:
-            return None
-        stat = Stat(values)
-        return format(stat.mean, spec) + (f" ± {format(stat.std, spec)}" if len(values) > 1 else "")
+        return format(Stat(values), spec) if values else None
 
     rows = []
-    for renderer in renderers:
+    for renderer in sorted({r for r, _ in scores}, key=renderer_order):
         seeds = next(scores[(renderer, b)] for b in budgets if (renderer, b) in scores)
         row: list = [renderer, cell([s["renderer_psnr"] for s in seeds.values() if "renderer_psnr" in s], ".2f")]
         for budget in budgets:
@@ -275,19 +260,9 @@ def painting_table(jobs: list[Job], brush: str) -> tuple[list[str], list[list]]:
     return header, rows
 
 
-def rate_order(rate) -> tuple:
-    """Rates by value; one that is not a number (a typo, none recorded) after them, by its text."""
-    try:
-        return 0, float(rate), ""
-    except (TypeError, ValueError):
-        return 1, 0.0, str(rate)
-
-
 def to_csv(header: list[str], rows: list[list]) -> str:
     out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(header)
-    writer.writerows([["" if v is None else v for v in row] for row in rows])
+    csv.writer(out, lineterminator="\n").writerows([header, *(["" if v is None else v for v in row] for row in rows)])
     return out.getvalue()
 
 
@@ -297,18 +272,14 @@ def to_markdown(header: list[str], rows: list[list]) -> str:
     def absent(value) -> bool:
         return value is None or (isinstance(value, float) and math.isnan(value))
 
-    def cell(value) -> str:
-        return "—" if absent(value) else str(value)
-
-    kept = [i for i in range(len(header)) if not all(absent(row[i]) for row in rows)] if rows else list(range(len(header)))
-    header, rows = [header[i] for i in kept], [[row[i] for i in kept] for row in rows]
-
     def numeric(value) -> bool:
         return value is None or isinstance(value, Number) or (isinstance(value, str) and _is_number(value.split(" ± ")[0]))
 
+    kept = [i for i in range(len(header)) if not all(absent(row[i]) for row in rows)] if rows else list(range(len(header)))
+    header, rows = [header[i] for i in kept], [[row[i] for i in kept] for row in rows]
     right = [all(numeric(row[i]) for row in rows) for i in range(len(header))]
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---:" if r else "---" for r in right) + "|"]
-    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in rows]
+    lines += ["| " + " | ".join("—" if absent(v) else str(v) for v in row) + " |" for row in rows]
     return "\n".join(lines) + "\n"
 
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TypeVar
 
 import torch
 import torch.nn.functional as F
@@ -18,7 +17,6 @@ from torch import Tensor, nn
 from nsp.config import BACKBONES
 
 MIN_SIDE = 4  # the smallest image side both take: two halvings (random: its 4× scale; VGG-19 to relu3_3: two max-pools)
-M = TypeVar("M", bound=nn.Module)
 
 
 class WeightsNotFound(FileNotFoundError):
@@ -55,27 +53,12 @@ def chosen_backbone(backbone: str, weights: str | os.PathLike | None = None) -> 
     return "vgg19" if (Path(weights) if weights is not None else hub_cache_path()).is_file() else "random"
 
 
-def _weights_file(weights: str | os.PathLike | None) -> Path:
-    """The explicit ``weights`` path, else the hub cache file; ``WeightsNotFound`` if absent."""
-    path = Path(weights) if weights is not None else hub_cache_path()
-    if not path.is_file():
-        raise WeightsNotFound(
-            f"VGG-19 weights not found at {path}; on a machine with internet run "
-            f"python -c \"import torchvision; torchvision.models.vgg19(weights='IMAGENET1K_V1')\" "
-            f"and copy ~/.cache/torch/hub/checkpoints/{hub_cache_path().name} from there to {hub_cache_path()} "
-            f"(or anywhere, and pass style.weights=PATH); style.backbone=random needs no weights"
-        )
-    return path
-
-
 class TappedFeatures(nn.Module):
     """Outputs of chosen modules of a sequential network: (B, 3, H, W) in [0, 1] -> list of maps."""
 
     def __init__(self, body: nn.Sequential, taps: tuple[int, ...]):
         super().__init__()
-        self.normalize = ImageNetNormalize()
-        self.body = body
-        self.taps = frozenset(taps)
+        self.normalize, self.body, self.taps = ImageNetNormalize(), body, frozenset(taps)
 
     def forward(self, images: Tensor) -> list[Tensor]:
         x = self.normalize(images)
@@ -87,20 +70,24 @@ class TappedFeatures(nn.Module):
         return out
 
 
-def vgg19_features(
-    weights: str | os.PathLike | None = None, layers: tuple[int, ...] = (2, 4, 7)
-) -> TappedFeatures:
+def vgg19_features(weights: str | os.PathLike | None = None, layers: tuple[int, ...] = (2, 4, 7)) -> TappedFeatures:
     """VGG-19 activations after the ReLU of the given conv layers (1-based, counting the convs of
-    torchvision's ``vgg19().features``; paper: 2nd, 4th, 7th = relu1_2, relu2_2, relu3_3).
+    torchvision's ``vgg19().features``; paper: 2nd, 4th, 7th = relu1_2, relu2_2, relu3_3), built only
+    up to the last of them.
 
-    ``weights`` is a state dict for torchvision's ``vgg19``, either the full model's keys
-    (``features.0.weight``, …) or those of ``features`` alone (``0.weight``, …); ``None`` reads
-    the torch hub cache file of ``VGG19_Weights.IMAGENET1K_V1``. Nothing is downloaded.
-    Only the layers up to the last requested conv are built.
+    ``weights``: a state dict file of torchvision's ``vgg19``, the full model's keys (``features.0.weight``)
+    or those of ``features`` alone (``0.weight``); ``None`` reads the hub cache file. Nothing is downloaded.
     """
     from torchvision.models.vgg import cfgs, make_layers
 
-    path = _weights_file(weights)
+    path = Path(weights) if weights is not None else hub_cache_path()
+    if not path.is_file():
+        raise WeightsNotFound(
+            f"VGG-19 weights not found at {path}; on a machine with internet run "
+            f"python -c \"import torchvision; torchvision.models.vgg19(weights='IMAGENET1K_V1')\" "
+            f"and copy ~/.cache/torch/hub/checkpoints/{hub_cache_path().name} from there to {hub_cache_path()} "
+            f"(or anywhere, and pass style.weights=PATH); style.backbone=random needs no weights"
+        )
     cfg, convs = [], 0
     for v in cfgs["E"]:  # torchvision's VGG-19 layout, cut after the last conv needed
         if convs == max(layers):
@@ -120,29 +107,21 @@ def vgg19_features(
     if missing:
         raise ValueError(f"{path} is not a VGG-19 state dict: it lacks features.{missing[0]}")
     body.load_state_dict({k: state[k] for k in wanted}, assign=True)
-    return _frozen(TappedFeatures(body, taps))
+    return TappedFeatures(body, taps).requires_grad_(False).eval()
 
 
 class RandomFeatures(nn.Module):
     """One convolutional layer of random filters of several sizes, ReLU, at several image scales.
 
-    Ustyuzhaninov et al. (2017) match textures with Gram matrices of a single random layer whose
-    filters span 3 to 55 px; here the large sizes come from running small kernels on 2×- and
-    4×-downsampled images, which is much cheaper. Output: one map per scale s,
+    Ustyuzhaninov et al. (2017) use one random layer with filters of 3 to 55 px; here the large sizes come,
+    much cheaper, from small kernels on 2×- and 4×-downsampled images. Output: one map per scale s,
     (B, filters·len(kernel_sizes), H/2^s, W/2^s).
     """
 
-    def __init__(
-        self,
-        seed: int = 0,
-        filters: int = 32,
-        kernel_sizes: tuple[int, ...] = (3, 5, 7, 11),
-        scales: int = 3,
-    ):
+    def __init__(self, seed: int = 0, filters: int = 32, kernel_sizes: tuple[int, ...] = (3, 5, 7, 11), scales: int = 3):
         super().__init__()
         self.normalize = ImageNetNormalize()
-        self.scales = scales
-        self.kernel_sizes = kernel_sizes
+        self.scales, self.kernel_sizes = scales, kernel_sizes
         generator = torch.Generator().manual_seed(seed)
         for k in kernel_sizes:
             w = torch.randn(filters, 3, k, k, generator=generator)
@@ -154,17 +133,15 @@ class RandomFeatures(nn.Module):
         out = []
         for s in range(self.scales):
             xs = F.avg_pool2d(x, 2**s) if s else x
-            maps = []
-            for k in self.kernel_sizes:
-                padded = F.pad(xs, (k // 2,) * 4, mode="replicate")
-                maps.append(F.conv2d(padded, getattr(self, f"weight_{k}")))
+            maps = [F.conv2d(F.pad(xs, (k // 2,) * 4, mode="replicate"), getattr(self, f"weight_{k}"))
+                    for k in self.kernel_sizes]
             out.append(F.relu(torch.cat(maps, 1)))
         return out
 
 
 def random_features(seed: int = 0, **kwargs) -> RandomFeatures:
     """Random multi-scale features, identical for the same ``seed``; ``kwargs`` go to :class:`RandomFeatures`."""
-    return _frozen(RandomFeatures(seed, **kwargs))
+    return RandomFeatures(seed, **kwargs).requires_grad_(False).eval()
 
 
 def feature_network(backbone: str, weights: str | os.PathLike | None = None, seed: int = 0) -> nn.Module:
@@ -176,8 +153,3 @@ def feature_network(backbone: str, weights: str | os.PathLike | None = None, see
     if backbone == "random":
         return random_features(seed)
     raise ValueError(f"unknown style.backbone '{backbone}', expected one of: {', '.join(BACKBONES)}")
-
-
-def _frozen(module: M) -> M:
-    module.requires_grad_(False)
-    return module.eval()

@@ -20,10 +20,9 @@ def gram(features: Tensor) -> Tensor:
 def gram_loss(grams_canvas: list[Tensor], grams_style: list[Tensor]) -> Tensor:
     """Mean over layers (and batch) of ‖G_c − G_s‖² / (‖G_c‖² + ‖G_s‖²): (B|1, C, C) each -> scalar.
 
-    Gatys's squared Gram difference, normalized so that it lies in [0, 1] (ReLU Grams are
-    non-negative), is 0 only for equal Grams, and does not depend on the feature network's
-    activation scale (pretrained, random or fake weights): β_sty = 0.5 then weighs a few tenths
-    for unrelated images against a painter's L1 of ~0.1.
+    Gatys's squared Gram difference normalized to [0, 1] (ReLU Grams are non-negative), whatever the
+    network's activation scale: β_sty = 0.5 then weighs a few tenths for unrelated images against a
+    painter's L1 of ~0.1.
     """
     terms = []
     for g_c, g_s in zip(grams_canvas, grams_style, strict=True):
@@ -37,9 +36,8 @@ def style_loss(feats_canvas: list[Tensor], feats_style: list[Tensor]) -> Tensor:
     return gram_loss([gram(f) for f in feats_canvas], [gram(f) for f in feats_style])
 
 
-def sliced_wasserstein(
-    canvas: Tensor, style: Tensor, projections: int = 64, generator: torch.Generator | None = None
-) -> Tensor:
+def sliced_wasserstein(canvas: Tensor, style: Tensor, projections: int = 64,
+                       generator: torch.Generator | None = None) -> Tensor:
     """Sliced 1-Wasserstein distance between the RGB pixel distributions of ``canvas`` (B, 3, H, W)
     and ``style`` (B|1, 3, h, w), in RGB units like an L1 loss -> scalar, differentiable in both.
 
@@ -52,8 +50,7 @@ def sliced_wasserstein(
     a = (canvas.flatten(2).transpose(1, 2) @ dirs).sort(dim=1).values  # (B, N, P)
     b = (style.flatten(2).transpose(1, 2) @ dirs).sort(dim=1).values  # (B|1, M, P)
     if b.shape[1] != a.shape[1]:
-        b = F.interpolate(b.transpose(1, 2), size=a.shape[1], mode="linear", align_corners=True)
-        b = b.transpose(1, 2)
+        b = F.interpolate(b.transpose(1, 2), size=a.shape[1], mode="linear", align_corners=True).transpose(1, 2)
     return (a - b).abs().mean()
 
 
@@ -68,13 +65,7 @@ class StyleLoss(nn.Module):
         seed: the random backbone's filters.
     """
 
-    def __init__(
-        self,
-        image: Tensor,
-        backbone: str = "auto",
-        weights: str | os.PathLike | None = None,
-        seed: int = 0,
-    ):
+    def __init__(self, image: Tensor, backbone: str = "auto", weights: str | os.PathLike | None = None, seed: int = 0):
         super().__init__()
         if image.ndim != 4 or image.shape[:2] != (1, 3):
             raise ValueError(f"the style image must be (1, 3, H, W), got {tuple(image.shape)}")

@@ -1,13 +1,8 @@
-"""How a stylized painting (paper §3.5) compares with its plain painting, its photo and its style.
-
+"""How a stylized painting (paper §3.5) compares with its plain painting, its photo and its style:
+:func:`color_distance` and :func:`texture_distance` to the style (lower: closer; textures on a random
+network held out from the style steps'), :func:`coherence` of the colours alike in the plain painting
+(lower: more coherent) and :func:`luminance_ssim` to the photo (higher: its structure still reads).
 Images are RGB (3, H, W) in [0, 1]; each measure returns a float.
-
-- :func:`color_distance`: how far the painting's colours are from the style's (lower: closer).
-- :func:`coherence`: how far apart colours that were alike in the plain painting end up (lower:
-  a more coherent recolouring; an identical or shared recolouring keeps them within their ≤ 0.03).
-- :func:`luminance_ssim`: whether the photo's luminance structure still reads (higher: better).
-- :func:`texture_distance`: the Gram distance to the style on a random network held out from
-  the one the style steps used (lower: closer textures).
 """
 from __future__ import annotations
 
@@ -59,7 +54,7 @@ def parted(image: Tensor, first: Tensor, second: Tensor) -> Tensor:
 
 def luminance_ssim(painting: Tensor, photo: Tensor) -> float:
     """SSIM of the lightness L* (:mod:`nsp.colors`) of ``painting`` and ``photo`` (same size),
-    with a Gaussian window (σ = 1.5), as ``nsp.painter.outputs.similarity`` compares colours."""
+    with a Gaussian window (σ = 1.5), as ``nsp.painting.outputs.similarity`` compares colours."""
     if painting.shape != photo.shape:
         raise ValueError(f"luminance_ssim needs images of one size: got {tuple(painting.shape)} and "
                          f"{tuple(photo.shape)}")

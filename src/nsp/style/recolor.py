@@ -1,25 +1,13 @@
 """Colour mode (paper §3.5): a painting's colours moved toward a style image's, its shapes kept.
 
-Two promises bound every change (:class:`Bounds`): the painting's luminance structure still reads
-(its luminance SSIM to the photo keeps a share 1 − ``structure``·β_sty of the plain painting's),
-and colours alike in the plain painting stay alike (on average within ``coherence``, RGB). Within
-them, two fits lower the sliced Wasserstein distance between the painting's colours and the
-style's (:class:`Objective`), each followed by the same check on the painted strokes
-(:func:`within_bounds`):
-
-1. **One map shared by every stroke and the canvas colour** (:class:`Recoloring`), in L*a*b*:
-   lightness L ↦ f(L), f increasing and piecewise linear (tones keep their order, so edges stay
-   edges), chroma c ↦ μ_s + A(c − μ_p) + g(L) (a tone may take a hue of its own). It starts at
-   the Gaussian optimal transport map of the chroma (:meth:`Recoloring.fit`) and is fitted on the
-   painting's pixels (:meth:`Recoloring.refine`).
-2. **Then each stroke's colours on their own** (:func:`refine_strokes`), each moving along the
-   style's own spread of colours: toward a grey style no stroke takes a hue. The shared map keeps
-   alike colours exactly alike; this step spends what is left of the coherence bound.
-
-Each fit is checked on the painting the strokes make (where translucent strokes blend, a curved
-map's blend is not the map of the blend) and, past a bound, taken back toward its start a share
-at a time. The knobs are :class:`ColorSettings`'s, chosen on the development pairs of
-``experiment=style_dev`` (docs/style.md).
+Two fits lower the sliced Wasserstein distance to the style's colours (:class:`Objective`) within two
+promises (:class:`Bounds`: the photo's luminance structure still reads, colours alike stay alike): first
+one map in L*a*b* shared by every stroke and the canvas colour (:class:`Recoloring`: lightness kept in
+order, so edges stay edges; chroma from the Gaussian optimal transport map, then fitted on the painting's
+pixels), then each stroke's colours on their own along the style's spread (:func:`refine_strokes`). Each
+fit is checked on the painted strokes (where translucent strokes blend, a curved map's blend is not the
+map of the blend) and, past a bound, taken back toward its start a share at a time (:func:`within_bounds`).
+:class:`ColorSettings`'s knobs were chosen on ``experiment=style_dev`` (docs/style.md).
 """
 from __future__ import annotations
 
@@ -63,10 +51,9 @@ class ColorSettings:
 
 
 class Bounds:
-    """Colour mode's two promises about a recoloured painting (3, H, W) of ``photo``: its luminance
-    SSIM to the photo ≥ ``floor`` = (1 − structure·β) × the ``plain`` painting's, and the pixels
-    alike in ``plain`` (:func:`~nsp.style.measures.alike_pairs`, the measure's :data:`SAMPLES`,
-    drawn with ``seed``) within ``settings.coherence`` of each other on average."""
+    """Colour mode's two promises about a recoloured painting (3, H, W) of ``photo``: its luminance SSIM
+    to the photo ≥ ``floor`` = (1 − structure·β) × the ``plain`` painting's, and the pixels alike in ``plain``
+    (:func:`~nsp.style.measures.alike_pairs`, seeded by ``seed``) within ``settings.coherence`` on average."""
 
     def __init__(self, plain: Tensor, photo: Tensor, weight: float, settings: ColorSettings, seed: int):
         self.photo, self.settings = photo, settings
@@ -140,10 +127,9 @@ def recolor(brush: Brush, strokes: Tensor, photo: Tensor, style: Tensor, weight:
 def shared_map(brush: Brush, strokes: Tensor, plain: Tensor, photo: Tensor, style: Tensor, weight: float,
                background: str, seed: int, settings: ColorSettings = ColorSettings(),
                tick: Callable[[], None] | None = None, bounds: Bounds | None = None) -> Recoloring:
-    """The map shared by every stroke of ``strokes`` (N, d) and by the canvas colour: fitted on
-    the ``plain`` painting's pixels (3, H, W, of ``photo`` on ``background``), then the largest
-    share of the way from its start that keeps the :class:`Bounds` on the painted strokes
-    (``bounds``, where the caller has made them). ``weight`` 0: the start alone."""
+    """The map shared by every stroke of ``strokes`` (N, d) and by the canvas colour: fitted on the ``plain``
+    painting's pixels (3, H, W, of ``photo`` on ``background``), then the largest share of the way from its
+    start that keeps the :class:`Bounds` (``bounds`` if given) on the painted strokes. ``weight`` 0: the start."""
     start = Recoloring.fit(plain, style)
     if weight == 0:
         return start
@@ -177,11 +163,10 @@ def within_bounds(painted: Callable[[float], tuple[object, Tensor]], bounds: Bou
 
 def refine_strokes(brush: Brush, strokes: Tensor, canvas: Tensor, style: Tensor, objective: Objective,
                    settings: ColorSettings) -> tuple[Tensor, Tensor]:
-    """Every colour of the painting ``strokes`` (N, d) on the canvas colour ``canvas`` (3,) moved on
-    its own by an offset in L*a*b* along the style's spread of colours (offset = Σ½·u, Σ their
-    covariance: strokes part only in the directions the style's colours vary in), ``stroke_steps``
-    Adam steps on the painted canvas lowering ``objective``; then :func:`within_bounds`. Returns
-    the strokes (shapes bit for bit) and the canvas colour (3,)."""
+    """Every colour of the painting ``strokes`` (N, d) on the canvas colour ``canvas`` (3,) moved on its own
+    by an L*a*b* offset Σ½·u, Σ the style's colour covariance (strokes part only where the style's colours
+    vary), ``stroke_steps`` Adam steps on the painted canvas lowering ``objective``; then
+    :func:`within_bounds`. Returns the strokes (shapes bit for bit) and the canvas colour (3,)."""
     height, width = objective.bounds.photo.shape[1:]
     index = list(brush.color)
     start = torch.cat([strokes[:, index].reshape(-1, 3), canvas[None].to(strokes)]).float()  # (K, 3): strokes', canvas
@@ -266,17 +251,13 @@ class Recoloring:
             optimizer.step()
             schedule.step()
         with torch.no_grad():
-            fitted = current()
-        return Recoloring(fitted.lightness, fitted.hue, fitted.matrix, self.mean_in, self.mean_out)
+            return current()
 
     def toward(self, other: Recoloring, share: float) -> Recoloring:
         """The map ``share`` ∈ [0, 1] of the way from this one to ``other`` (same means), parameter
         by parameter; f stays increasing."""
-        def mix(a: Tensor, b: Tensor) -> Tensor:
-            return (1 - share) * a + share * b
-
-        return Recoloring(mix(self.lightness, other.lightness), mix(self.hue, other.hue),
-                          mix(self.matrix, other.matrix), self.mean_in, self.mean_out)
+        pairs = ((self.lightness, other.lightness), (self.hue, other.hue), (self.matrix, other.matrix))
+        return Recoloring(*((1 - share) * a + share * b for a, b in pairs), self.mean_in, self.mean_out)
 
     def lab(self, lab: Tensor) -> Tensor:
         """Recoloured L*a*b* / 100 colours (..., 3), possibly outside the sRGB gamut."""

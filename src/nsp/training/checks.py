@@ -1,5 +1,4 @@
-"""The checks of a composed training config that its types cannot make: sizes and counts that would
-train nothing or wrongly, a GPU the machine lacks, memory the machine lacks (nsp.engine.memory)."""
+"""The checks of a composed training config that its types cannot make."""
 from __future__ import annotations
 
 from typing import Any
@@ -13,8 +12,8 @@ ACCELERATORS = ("cpu", "gpu", "cuda", "mps", "auto")
 
 
 def check(cfg: Any) -> None:
-    """Raise ``ValueError`` (one line naming the value and what is valid) for a composed training
-    config that types cannot catch: sizes and counts that would train nothing, or train wrongly."""
+    """Raise ``ValueError`` (one line naming the value and what is valid) for sizes and counts that would
+    train nothing or wrongly, a GPU the machine lacks, or memory it lacks (:mod:`nsp.engine.memory`)."""
     data, model = cfg.data, cfg.model
     for key in ("batch_size", "epoch_size", "val_size", "test_size"):
         if data[key] < 1:

@@ -20,23 +20,18 @@ def generator(*seed: int) -> torch.Generator:
 
 
 def draw(brush: Brush, n: int, size: int, gen: torch.Generator, chunk: int = 256) -> tuple[Tensor, Tensor, Tensor]:
-    """``n`` strokes uniform over the parameter space and their antialiased renderings.
-
-    Returns x (n, d), foreground (n, 3, size, size), alpha (n, 1, size, size).
-    """
+    """``n`` strokes uniform over the parameter space and their antialiased renderings: x (n, d),
+    foreground (n, 3, size, size), alpha (n, 1, size, size)."""
     x = brush.sample(n, generator=gen)
     fg, alpha = zip(*(render(brush, part, size) for part in x.split(chunk)))
     return x, torch.cat(fg), torch.cat(alpha)
 
 
 class RandomStrokes(Dataset):
-    """Item i is batch i of an endless stream of random strokes, seeded by (seed, 0, i).
-
-    An item is ``(x, foreground, alpha)`` rendered at ``size`` (by the compiled engine with
-    ``compile``), or the strokes x (B, d) alone when ``size`` is None (rendered later, on the training
-    device). A batch depends on its index only, so the stream is the same whatever the number of
-    workers or processes.
-    """
+    """Item i is batch i of an endless stream of random strokes, seeded by (seed, 0, i), so the stream is
+    the same whatever the number of workers or processes: ``(x, foreground, alpha)`` rendered at ``size``
+    (by the compiled engine with ``compile``), or x (B, d) alone where ``size`` is None (rendered on the
+    training device)."""
 
     def __init__(self, brush: Brush, batch_size: int, seed: int, size: int | None = None, compile: bool = False):
         self.brush, self.batch_size, self.seed, self.size, self.compile = brush, batch_size, seed, size, compile
@@ -48,11 +43,9 @@ class RandomStrokes(Dataset):
 
 class EpochSampler(Sampler[int]):
     """Batch indices of one epoch, new ones every epoch (Lightning calls ``set_epoch``), split over ranks.
-
-    ``done``: batches of the current epoch this rank trained on before a resume mid-epoch. They are
-    skipped once, so the resumed run sees exactly the batches the uninterrupted one would; the
-    length stays the whole epoch's, as Lightning counts the restored batches in it.
-    """
+    ``done``: batches of this epoch trained on before a resume mid-epoch, skipped once so the resumed run
+    sees the batches the uninterrupted one would; the length stays the whole epoch's, as Lightning counts
+    the restored batches in it."""
 
     def __init__(self, batches: int, rank: int = 0, world_size: int = 1, done: int = 0):
         self.batches, self.rank, self.world_size, self.epoch, self.done = batches, rank, world_size, 0, done
@@ -72,29 +65,14 @@ class EpochSampler(Sampler[int]):
 class StrokeData(L.LightningDataModule):
     """Random training strokes of one brush (fresh every epoch), and fixed, seeded validation and test
     sets (streams 1 and 2 of their seeds; training is stream 0), so no choice made on the validation
-    strokes scores itself on them.
-
-    Batches are ``(x (B, d), foreground (B, 3, S, S), alpha (B, 1, S, S))``. Training batches are
-    rendered by ``num_workers`` loader processes, alongside training (CPU), or with
-    ``render_on_device`` on the training device after the transfer (a GPU draws its own data).
+    strokes scores itself on them. Batches are ``(x (B, d), foreground (B, 3, S, S), alpha (B, 1, S, S))``,
+    the training ones rendered by ``num_workers`` loader processes, or with ``render_on_device`` on the
+    training device after the transfer (a GPU draws its own data).
     """
 
-    def __init__(
-        self,
-        brush: str,
-        size: int,
-        batch_size: int = 64,
-        epoch_size: int = 50_000,
-        val_size: int = 1024,
-        val_seed: int = 0,
-        test_size: int = 1024,
-        test_seed: int = 0,
-        seed: int = 0,
-        num_workers: int = 0,
-        render_on_device: bool = False,
-        compile: bool = False,
-        texture: str | None = None,
-    ):
+    def __init__(self, brush: str, size: int, batch_size: int = 64, epoch_size: int = 50_000, val_size: int = 1024,
+                 val_seed: int = 0, test_size: int = 1024, test_seed: int = 0, seed: int = 0, num_workers: int = 0,
+                 render_on_device: bool = False, compile: bool = False, texture: str | None = None):
         super().__init__()
         self.brush = get_brush(brush, texture)
         self.size, self.batch_size = size, batch_size
@@ -119,13 +97,8 @@ class StrokeData(L.LightningDataModule):
             sampler = EpochSampler(self.batches, trainer.global_rank, trainer.world_size)
             sampler.epoch = trainer.current_epoch
             sampler.done = min(max(trainer.global_step - trainer.current_epoch * len(sampler), 0), len(sampler))
-        return DataLoader(
-            self.train_set,
-            batch_size=None,  # an item is already a batch
-            sampler=sampler,
-            num_workers=self.num_workers,
-            persistent_workers=self.num_workers > 0,
-        )
+        return DataLoader(self.train_set, batch_size=None, sampler=sampler,  # an item is already a batch
+                          num_workers=self.num_workers, persistent_workers=self.num_workers > 0)
 
     def val_dataloader(self) -> DataLoader:
         return self.scoring_loader(self.val_set)

@@ -10,14 +10,9 @@ from torch.utils.tensorboard.summary import hparams
 
 
 class RunLogger(TensorBoardLogger):
-    """Lightning's TensorBoard logger with three changes:
-
-    - no ``epoch`` chart (runs are counted in steps), and the learning rate under ``lr/``
-      (LearningRateMonitor's ``lr-Adam`` becomes ``lr/Adam``);
-    - the event file stays open from ``fit`` to ``test`` (Lightning closes it after each, so every
-      stage would start a file of its own); :meth:`log_run` closes it;
-    - :meth:`log_run` writes the HPARAMS entry without logging the scores a second time.
-    """
+    """Lightning's TensorBoard logger, with no ``epoch`` chart (runs are counted in steps), the learning
+    rate under ``lr/`` (``lr-Adam`` becomes ``lr/Adam``), and one event file from ``fit`` to ``test``
+    (Lightning's closes it after each stage): :meth:`log_run` writes the HPARAMS entry, then closes it."""
 
     @rank_zero_only
     def log_metrics(self, metrics: Mapping[str, float], step: int | None = None) -> None:
@@ -37,7 +32,6 @@ class RunLogger(TensorBoardLogger):
         """The run's HPARAMS entry: its settings ``params`` (name -> number or text) beside ``metrics``,
         tags of scalars already logged (TensorBoard shows each one's last point); then closes the file."""
         # Lightning's log_hyperparams would log each metric again, as a one-point scalar at step 0.
-        writer = self.experiment._get_file_writer()  # as Lightning does: SummaryWriter has no public add_summary
         for summary in hparams(dict(params), dict.fromkeys(metrics, 0.0)):
-            writer.add_summary(summary)
+            self.experiment.file_writer.add_summary(summary)  # the open event file's writer
         self.experiment.close()

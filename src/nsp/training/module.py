@@ -32,22 +32,16 @@ class RendererModule(L.LightningModule):
         scheduler_interval: ``"epoch"`` or ``"step"``.
     """
 
-    def __init__(
-        self,
-        renderer: dict[str, Any],
-        brush: str,
-        optimizer: Callable[..., torch.optim.Optimizer] = torch.optim.Adam,
-        scheduler: Optional[Callable[..., Any]] = None,
-        scheduler_interval: str = "epoch",
-    ):
+    def __init__(self, renderer: dict[str, Any], brush: str,
+                 optimizer: Callable[..., torch.optim.Optimizer] = torch.optim.Adam,
+                 scheduler: Optional[Callable[..., Any]] = None, scheduler_interval: str = "epoch"):
         super().__init__()
         if scheduler_interval not in ("epoch", "step"):
             raise ValueError(f"model.scheduler_interval must be 'epoch' or 'step', got '{scheduler_interval}'")
         self.save_hyperparameters("renderer", "brush")
         self.renderer = build(renderer, brush)
         self.optimizer, self.scheduler, self.scheduler_interval = optimizer, scheduler, scheduler_interval
-        self.psnr_fg = PeakSignalNoiseRatio(data_range=1.0)
-        self.psnr_alpha = PeakSignalNoiseRatio(data_range=1.0)
+        self.psnr_fg, self.psnr_alpha = PeakSignalNoiseRatio(data_range=1.0), PeakSignalNoiseRatio(data_range=1.0)
         self.last_batch: float | None = None  # when the last training batch began (train/strokes_per_s)
 
     def forward(self, x: Tensor) -> tuple[Tensor, Tensor]:

@@ -46,11 +46,9 @@ def _hms(seconds: float | None) -> str:
 
 class StepProgressBar(RichProgressBar):
     """Lightning's rich bar over the whole run, one line that the bar fills to the terminal's width:
-    ``step 120/400 ━━━━━━━ 0:00:31 • 0:01:12 train/loss: 0.01234 val/psnr: 21.47``.
-
-    The count is optimizer steps out of ``trainer.estimated_stepping_batches`` (``max_steps``, or the
-    epochs' batches), carried on across epochs and from a resumed checkpoint's step. Validation and
-    testing keep Lightning's own lines.
+    ``step 120/400 ━━━━━━━ 0:00:31 • 0:01:12 train/loss: 0.01234 val/psnr: 21.47``, counting optimizer
+    steps out of ``trainer.estimated_stepping_batches`` across epochs and from a resumed checkpoint's step.
+    Validation and testing keep Lightning's own lines.
     """
 
     def __init__(self, **kwargs):

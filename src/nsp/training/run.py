@@ -23,8 +23,7 @@ from pytorch_lightning.utilities.exceptions import SIGTERMException
 from omegaconf import DictConfig, OmegaConf
 
 from nsp.errors import BadInput, RunFailed
-from nsp.files import atomic_path
-from nsp.files import write_json
+from nsp.files import atomic_path, write_json
 from nsp.renderers.checkpoint import check_checkpoint
 from nsp.signals import shielded
 from nsp.training.data import StrokeData
@@ -37,11 +36,8 @@ METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_
 
 
 class SaveOnInterrupt(Callback):
-    """Saves a resumable checkpoint when training is interrupted (Ctrl-C, SIGTERM).
-
-    Lightning's ``OnExceptionCheckpoint`` does too, but also turns every ``fit`` into a resume from the
-    last checkpoint it finds.
-    """
+    """Saves a resumable checkpoint when training is interrupted (Ctrl-C, SIGTERM). Lightning's
+    ``OnExceptionCheckpoint`` does too, but also turns every ``fit`` into a resume from the last one."""
 
     def __init__(self, path: Path):
         self.path = path
@@ -50,17 +46,15 @@ class SaveOnInterrupt(Callback):
         if isinstance(exception, (KeyboardInterrupt, SIGTERMException)):
             epochs, loop = trainer.fit_loop.epoch_progress.current, trainer.fit_loop.epoch_loop
             if epochs.ready == epochs.completed:  # stopped between epochs (Lightning's SIGTERM check at an epoch's end)
-                # The next epoch has not begun: its batch counts are zero, as its start would make them.
-                # Left at the last epoch's, a resume would take the next epoch for done and skip it.
+                # The next epoch's batch counts are zero, as its start would make them: a resume would skip it else.
                 for progress in (loop.batch_progress, loop.scheduler_progress, loop.automatic_optimization.optim_progress):
                     progress.reset_on_run()
             trainer.save_checkpoint(self.path)
 
 
 class StopBetweenSteps(Callback):
-    """Ctrl-C and SIGTERM while fitting stop training at the end of the step under way (after a
-    validation pass under way), so the checkpoint :class:`SaveOnInterrupt` writes resumes exactly; a
-    second one stops at once. Lightning's own SIGTERM handling, where it runs, also stops between steps."""
+    """Ctrl-C and SIGTERM while fitting stop training at the end of the step (and validation pass)
+    under way, so the checkpoint :class:`SaveOnInterrupt` writes resumes exactly; a second stops at once."""
 
     def __init__(self):
         self.asked = False
@@ -87,9 +81,8 @@ class StopBetweenSteps(Callback):
 
 
 class AtomicCheckpointIO(TorchCheckpointIO):
-    """Writes a checkpoint beside its target and renames it into place (``os.replace``), so a crash,
-    a kill or a full disk mid-save leaves the previous file whole. Lightning's own goes through a
-    file in the system's temp dir and ``shutil.move``, a copy where the run dir is another filesystem."""
+    """Writes a checkpoint beside its target and renames it into place, so a crash, a kill or a full
+    disk mid-save leaves the previous file whole (Lightning's copies from the system's temp dir)."""
 
     def save_checkpoint(self, checkpoint: dict, path, storage_options=None) -> None:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
@@ -111,13 +104,9 @@ class StopOnNonFinite(Callback):
 
 
 class ValidateLastStep(Callback):
-    """Makes the step that reaches ``trainer.max_steps`` a validation step, so the final scores and the
-    last point of every ``val/`` curve are one pass.
-
-    Lightning validates at the end of an epoch; a run that reaches ``max_steps`` mid-epoch stops
-    without validating, unless asked to stop (``should_stop``), which validates first.
-    ``step``: the global step of the last validation in ``fit`` (-1 before any).
-    """
+    """Makes the step that reaches ``trainer.max_steps`` a validation step (Lightning validates at an
+    epoch's end, or when asked to stop mid-epoch), so the final scores and the last point of every
+    ``val/`` curve are one pass. ``step``: the global step of the last validation in ``fit`` (-1 before any)."""
 
     def __init__(self):
         self.step = -1
@@ -132,14 +121,11 @@ class ValidateLastStep(Callback):
 
 
 def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
-    """Train the renderer ``cfg`` describes; write checkpoints, TensorBoard events and ``metrics.json``.
-
-    The final model is scored on the validation strokes (by fit's last validation) and then, once, on
-    the test strokes.
-    ``callbacks`` are added to the trainer's own. Returns the metrics written to ``metrics.json``.
+    """Train the renderer ``cfg`` describes, with ``callbacks`` beside the trainer's own; write
+    checkpoints, TensorBoard events and ``metrics.json``, and return its metrics. The final model is
+    scored on the validation strokes (by fit's last validation), then once on the test strokes.
     Raises ``ValueError`` for a value it cannot train with, before any work; ``KeyboardInterrupt``
-    once an interrupted run (Ctrl-C, SIGTERM) has saved ``checkpoints/last.ckpt`` and its metrics.
-    """
+    once an interrupted run (Ctrl-C, SIGTERM) has saved ``checkpoints/last.ckpt`` and its metrics."""
     check(cfg)
     if cfg.ckpt_path is not None:
         check_checkpoint(cfg.ckpt_path, OmegaConf.to_container(cfg.renderer, resolve=True, enum_to_str=True), cfg.brush.name)
@@ -149,10 +135,8 @@ def train(cfg: DictConfig, callbacks: Sequence[Callback] = ()) -> dict:
 
 
 def check_whole(path: str | Path) -> None:
-    """Raise :class:`~nsp.errors.BadInput` where checkpoint ``path`` reads but its bytes are not those
-    saved: torch writes a checkpoint as a zip archive with a checksum (CRC-32) per part, which
-    ``torch.load`` does not check, so a damaged file may load as weights that are not finite, or
-    wrong, and a resumed run then fails as if it had diverged."""
+    """Raise :class:`~nsp.errors.BadInput` where checkpoint ``path`` is not as saved: a checksum of its
+    zip archive's parts fails, which ``torch.load`` does not check (a resume would seem to diverge)."""
     advice = "resume from another checkpoint, or remove it to train from the start"
     try:
         with zipfile.ZipFile(path) as archive:
@@ -166,42 +150,29 @@ def check_whole(path: str | Path) -> None:
 
 def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
     L.seed_everything(cfg.seed, workers=True)
-    if cfg.threads:
-        torch.set_num_threads(cfg.threads)
     out = Path(cfg.output_dir)
     data = StrokeData(cfg.brush.name, cfg.model.size, seed=cfg.seed, texture=cfg.brush.texture, **cfg.data)
-    model = RendererModule(
-        renderer=OmegaConf.to_container(cfg.renderer, resolve=True, enum_to_str=True),  # checkpoints hold plain types
-        brush=cfg.brush.name,
-        optimizer=instantiate(cfg.model.optimizer),
-        scheduler=instantiate(cfg.model.scheduler),
-        scheduler_interval=str(cfg.model.scheduler_interval),
-    )
+    renderer = OmegaConf.to_container(cfg.renderer, resolve=True, enum_to_str=True)  # checkpoints hold plain types
+    model = RendererModule(renderer=renderer, brush=cfg.brush.name, optimizer=instantiate(cfg.model.optimizer),
+                           scheduler=instantiate(cfg.model.scheduler),
+                           scheduler_interval=str(cfg.model.scheduler_interval))
     logger = RunLogger(out, name="", version="", default_hp_metric=False)  # events in the run dir: the run is named after it
     config = OmegaConf.to_yaml(OmegaConf.masked_copy(cfg, [key for key in cfg if key != "hydra"]), resolve=True)
     logger.experiment.add_text("config", "    " + config.replace("\n", "\n    "))  # TensorBoard's TEXT: the run's config
     checkpoints = out / "checkpoints"
     last_validation, stop = ValidateLastStep(), StopBetweenSteps()
-    callbacks = [
-        *callbacks,
-        stop,
-        StopOnNonFinite(),  # before the checkpoints: Lightning calls ModelCheckpoint's hooks last
-        last_validation,
+    callbacks = [  # StopOnNonFinite acts before any checkpoint is saved: Lightning calls ModelCheckpoint's hooks last
+        *callbacks, stop, StopOnNonFinite(), last_validation,
         # no version counter: a resumed run keeps best.ckpt and last.ckpt current in place
         ModelCheckpoint(checkpoints, filename="best", monitor="val/psnr", mode="max", save_last=True,
                         enable_version_counter=False),
-        SaveOnInterrupt(checkpoints / "last.ckpt"),
-        LearningRateMonitor(),
+        SaveOnInterrupt(checkpoints / "last.ckpt"), LearningRateMonitor(),
+        *([StepProgressBar()] if cfg.trainer.enable_progress_bar else []),
     ]
-    if cfg.trainer.enable_progress_bar:
-        callbacks.append(StepProgressBar())
     # torch's SyncBatchNorm is CUDA-only: on CPU (gloo) each rank keeps its own batch statistics.
     sync_batchnorm = cfg.trainer.sync_batchnorm and cfg.trainer.accelerator != "cpu"
-    trainer: L.Trainer = instantiate(
-        cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out, sync_batchnorm=sync_batchnorm,
-        plugins=[AtomicCheckpointIO()],
-    )
-
+    trainer: L.Trainer = instantiate(cfg.trainer, logger=logger, callbacks=callbacks, default_root_dir=out,
+                                     sync_batchnorm=sync_batchnorm, plugins=[AtomicCheckpointIO()])
     start = time.perf_counter()
     try:
         with stop.listening():
@@ -236,9 +207,8 @@ def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
 
 @contextmanager
 def quiet_lightning() -> Iterator[None]:
-    """Lightning without its noise: its INFO lines (tips, device lines, "fit stopped"), a torch-internal
-    deprecation it triggers, the logging-interval hint of short runs, and the mid-epoch resume
-    warning (StrokeData's sampler resumes mid-epoch exactly). Its other warnings stay."""
+    """Lightning without its INFO lines and four warnings that do not apply (the mid-epoch resume:
+    StrokeData's sampler resumes exactly); its other warnings stay."""
     logs = [logging.getLogger(name) for name in ("pytorch_lightning", "lightning_fabric")]
     levels = [log.level for log in logs]
     for log in logs:
@@ -258,15 +228,9 @@ def quiet_lightning() -> Iterator[None]:
 def _finish(trainer: L.Trainer, logger: RunLogger, cfg: DictConfig, scores, start: float, status: str) -> dict:
     """Write ``metrics.json`` and the HPARAMS entry (the run's settings and final scores); return the metrics."""
     metrics = {k: round(float(scores[k]), 3) for k in METRICS if k in scores and math.isfinite(float(scores[k]))} | {
-        "steps": trainer.global_step,
-        "seconds": round(time.perf_counter() - start, 1),
-        "renderer": str(cfg.renderer.name),
-        "brush": cfg.brush.name,
-        "size": cfg.model.size,
-        "lr": cfg.model.optimizer.get("lr"),
-        "seed": cfg.seed,
-        "status": status,
-    }
+        "steps": trainer.global_step, "seconds": round(time.perf_counter() - start, 1),
+        "renderer": str(cfg.renderer.name), "brush": cfg.brush.name, "size": cfg.model.size,
+        "lr": cfg.model.optimizer.get("lr"), "seed": cfg.seed, "status": status}
     if trainer.is_global_zero:
         logger.log_run(_settings(cfg), [k for k in METRICS if k in metrics])
         write_json(Path(cfg.output_dir) / "metrics.json", metrics)
@@ -277,9 +241,8 @@ def _settings(cfg: DictConfig) -> dict:
     """The run's key settings, as the HPARAMS tab lists them: TensorBoard ticks the first five, so
     those are what nsp's studies vary (renderer, brush, seed, rate, size)."""
     scheduler = cfg.model.scheduler
-    return {
-        "renderer": str(cfg.renderer.name), "brush": cfg.brush.name, "seed": cfg.seed, "lr": cfg.model.optimizer.get("lr"),
-        "size": cfg.model.size, "max_steps": cfg.trainer.max_steps,
-        "lr_schedule": scheduler._target_.rsplit(".", 1)[-1] if scheduler else "constant",
-        "channel_mult": cfg.model.channel_mult, "batch_size": cfg.data.batch_size, "epoch_size": cfg.data.epoch_size,
-    }
+    return {"renderer": str(cfg.renderer.name), "brush": cfg.brush.name, "seed": cfg.seed,
+            "lr": cfg.model.optimizer.get("lr"), "size": cfg.model.size, "max_steps": cfg.trainer.max_steps,
+            "lr_schedule": scheduler._target_.rsplit(".", 1)[-1] if scheduler else "constant",
+            "channel_mult": cfg.model.channel_mult, "batch_size": cfg.data.batch_size,
+            "epoch_size": cfg.data.epoch_size}

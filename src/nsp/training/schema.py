@@ -1,9 +1,6 @@
-"""Structured-config schemas of ``python -m nsp.train``, registered in Hydra's ConfigStore.
-
-Typed fields make a bad value fail at compose time naming its key (``trainer.max_epochs=abc``);
-:func:`nsp.training.checks.check` catches the values types cannot. Nothing here imports torch:
-``--help`` composes this config.
-"""
+"""Structured-config schemas of ``python -m nsp.train``, registered in Hydra's ConfigStore: a badly typed
+value fails at compose time naming its key (:func:`nsp.training.checks.check` catches the others).
+Nothing here imports torch: ``--help`` composes this config."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -56,15 +53,8 @@ Interval = StrEnum("Interval", {"epoch": "epoch", "step": "step"})  # Hydra reje
 class ModelConfig:
     size: int = 128  # output side S: 32, 64 or 128
     channel_mult: float = 1.0  # channel multiplier; 1 = the paper's layers
-    optimizer: Any = field(
-        default_factory=lambda: {
-            "_target_": "torch.optim.Adam",
-            "_partial_": True,
-            "lr": 2e-4,
-            "betas": [0.9, 0.999],
-            "fused": True,  # one kernel for all parameters: several times faster on CPU
-        }
-    )
+    optimizer: Any = field(default_factory=lambda: {  # fused: one kernel for all parameters, several× faster on CPU
+        "_target_": "torch.optim.Adam", "_partial_": True, "lr": 2e-4, "betas": [0.9, 0.999], "fused": True})
     scheduler: Any = None  # LRScheduler _partial_, from the ``schedule`` group
     scheduler_interval: Interval = Interval.epoch  # when the scheduler steps
 
