@@ -34,6 +34,8 @@ from nsp.training.checks import check
 
 METRICS = ("val/psnr", "val/psnr_fg", "val/psnr_alpha", "test/psnr", "test/psnr_fg", "test/psnr_alpha")
 
+log = logging.getLogger(__name__)
+
 
 class SaveOnInterrupt(Callback):
     """Saves a resumable checkpoint when training is interrupted (Ctrl-C, SIGTERM). Lightning's
@@ -151,6 +153,10 @@ def check_whole(path: str | Path) -> None:
 def _fit(cfg: DictConfig, callbacks: Sequence[Callback]) -> dict:
     L.seed_everything(cfg.seed, workers=True)
     out = Path(cfg.output_dir)
+    rates = cfg.lr_by_renderer.get(f"{cfg.model.size}px", {})
+    if rates and cfg.renderer.name not in rates:  # a renderer of one's own in a study: said, not silent
+        log.info(f"renderer={cfg.renderer.name} has no rate in lr_by_renderer for {cfg.model.size} px: "
+                 f"model.optimizer.lr={cfg.model.optimizer.lr}, the default")
     data = StrokeData(cfg.brush.name, cfg.model.size, seed=cfg.seed, texture=cfg.brush.texture, **cfg.data)
     renderer = OmegaConf.to_container(cfg.renderer, resolve=True, enum_to_str=True)  # checkpoints hold plain types
     model = RendererModule(renderer=renderer, brush=cfg.brush.name, optimizer=instantiate(cfg.model.optimizer),

@@ -10,17 +10,13 @@ from typing import Any, Optional
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING
 
-from nsp.config import CONF, BrushConfig  # also registers the ``brush`` group
-
-
-# The ``renderer`` group's options; Hydra rejects any other ``renderer.name`` at compose time.
-RendererName = StrEnum("RendererName", {path.stem: path.stem for path in sorted((CONF / "train" / "renderer").glob("*.yaml"))})
+from nsp.config import BrushConfig  # also registers the ``brush`` group
 
 
 @dataclass
 class RendererConfig:
     _target_: str = MISSING
-    name: RendererName = MISSING  # the group choice: keys ``lr_by_renderer`` and names the run in its metrics
+    name: str = MISSING  # the group choice (nsp's, or one of yours via hydra.searchpath): keys ``lr_by_renderer``, names the run
     size: int = "${model.size}"  # type: ignore[assignment]
     channel_mult: float = "${model.channel_mult}"  # type: ignore[assignment]
 
