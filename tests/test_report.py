@@ -94,8 +94,8 @@ def test_seeds_pool_into_mean_and_std_of_the_test_score_with_paired_margins(tmp_
         "| renderer | lr | oilpaint | oilpaint (paper) |\n|---|---:|---:|---:|\n"
         "| dcgan | 0.001 | 20.00 ± 1.00 | — |\n| dual | 0.003 | 22.67 ± 0.76 | 26.98 |\n"
     ) in report
-    # Paired by seed: 3.0, 2.5, 2.5.
-    assert "| dcgan | +2.67 ± 0.29 |" in report
+    # Paired by seed: 3.0, 2.5, 2.5: mean 2.67, std 0.29, so t = 16 on 2 degrees of freedom (t* = 4.303).
+    assert "| dcgan | +2.67 ± 0.29 [+1.95, +3.38] p=0.0039 |" in report
     assert (tmp_path / "final_test_psnr.png").is_file() and not (tmp_path / "val_psnr.png").exists()
 
 

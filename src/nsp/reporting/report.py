@@ -50,7 +50,9 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
                   " Fig. 9 gives curves only.", "", to_markdown(*pivot(jobs))]
         if table := margins(jobs):
             lines += ["## Dual's margin (dB)", "", f"dual minus each renderer, {spread} of the paired difference"
-                      " (same seed, same training strokes).", "", to_markdown(*table)]
+                      " (same seed, same training strokes); over several seeds, its 95 % confidence interval and the"
+                      " two-sided p of a paired t-test. A margin whose interval holds 0 is a tie.", "",
+                      to_markdown(*table)]
         if table := chosen_rates(jobs):
             lines += ["## Learning rate per renderer", "",
                       "Validation PSNR averaged over brushes; `chosen` is the best.", "", to_markdown(*table)]

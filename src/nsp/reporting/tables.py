@@ -183,9 +183,22 @@ def margins(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
         for brush in brushes:
             dual, theirs = scores(DUAL, brush), scores(other, brush)
             paired = Stat([dual[s] - theirs[s] for s in dual if s in theirs])
-            row.append(f"{'+' if paired.mean >= 0 else ''}{paired}" if paired.values else None)
+            row.append(significance(paired) if paired.values else None)
         rows.append(row)
     return header, rows
+
+
+def significance(paired: Stat) -> str:
+    """A paired difference over seeds as a cell: ``+0.43 ± 0.43 [−0.63, +1.49] p=0.23``, its mean ±
+    std, the 95 % confidence interval of the mean and the two-sided p of Student's one-sample t-test
+    against 0 (scipy.stats.ttest_1samp); the difference alone for one seed."""
+    if len(paired.values) < 2:
+        return f"{paired.mean:+.2f}"
+    from scipy.stats import ttest_1samp
+
+    test = ttest_1samp(paired.values, 0.0)
+    low, high = test.confidence_interval(0.95)
+    return f"{paired.mean:+.2f} ± {paired.std:.2f} [{low:+.2f}, {high:+.2f}] p={test.pvalue:.2g}"
 
 
 def chosen_rates(jobs: list[Job]) -> tuple[list[str], list[list]] | None:
