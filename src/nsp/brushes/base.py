@@ -2,12 +2,11 @@
 formats (an SVG element per stroke, the reference implementation's stroke arrays).
 
 Every stroke parameter lies in [0, 1]. Coordinates: x to the right, y down; a position p lands on
-pixel p·(W−1) (x) or p·(H−1) (y); sizes are fractions of the canvas width W.
-"""
+pixel p·(W−1) (x) or p·(H−1) (y); sizes are fractions of the canvas width W."""
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -15,16 +14,11 @@ import torch
 from torch import Tensor
 
 
-# What each parameter means geometrically; lets generic code (blocks, import, export) move strokes.
-KINDS = ("x", "y", "size", "angle", "ctrl_x", "ctrl_y", "color", "alpha")
-
-
 @dataclass(frozen=True)
 class Pixels:
-    """Pixel centres in canvas pixel units, one row per stroke: px, py of shape (P, N); ``key``
-    (P, 1) int64, each row's stroke's key (its index and the painting's seed, for brushes whose
-    paint varies from stroke to stroke; None: 0). ``height`` and ``width`` are the canvas's: ints, or
-    0-d tensors in a compiled kernel that serves every size (:func:`nsp.engine.kernels.shade_any_size`)."""
+    """Pixel centres in canvas pixel units, one row per stroke: px, py (P, N); ``key`` (P, 1) int64, each
+    row's stroke's key (its index and the painting's seed, for paint that varies by stroke; None: 0);
+    ``height``, ``width``: the canvas's, ints or 0-d tensors (:func:`nsp.engine.kernels.shade_any_size`)."""
 
     px: Tensor
     py: Tensor
@@ -40,12 +34,11 @@ class Brush:
     Attributes:
         name: config name (``brush=name``).
         params: parameter names in the paper's order.
-        kinds: one of :data:`KINDS` per parameter.
+        kinds: what each parameter is (x, y, size, angle, color, alpha), for generic code that moves strokes.
         shape, color: indices of the shape and colour parameters.
         alpha: index of the transparency parameter, or ``None`` where A ≡ 1.
         reference: columns of the reference implementation's ``x_ctt`` and ``x_color`` arrays.
-        softness: the soft edge's width (pixels) the painter optimizes this brush's strokes with.
-    """
+        softness: the soft edge's width (pixels) the painter optimizes this brush's strokes with."""
 
     name: str
     params: tuple[str, ...]
@@ -54,14 +47,11 @@ class Brush:
     color: tuple[int, ...]
     alpha: int | None = None
     description: str = ""
-    options: dict = field(default_factory=dict)
     texture_path: str | None = None  # the image of an oil brush's bristle texture; None: nsp's own
     seed: int = 0  # with each stroke's index, what a brush whose paint varies by stroke draws it from
     reference: tuple[int, int] = (0, 0)
     svg_painted: ClassVar[bool] = False  # its SVG holds each stroke's paint as an image (see svg_elements)
-    # astronaut, 500 strokes, seeds 0–2 (docs/benchmarks.md): 0.25 over 0.5 +0.14 to +0.26 dB for the
-    # translucent and thin brushes; oil's whole image −0.18 dB (its face +0.8), so oil keeps 0.5
-    softness: float = 0.25
+    softness: float = 0.25  # over 0.5: +0.14 to +0.26 dB for the thin and translucent brushes; oil keeps 0.5
 
     def plain(self) -> "Brush":
         """This brush with any detail finer than its strokes (oil's bristles) replaced by its mean:
@@ -69,10 +59,8 @@ class Brush:
         return self
 
     def sized(self, width: int) -> "Brush | None":
-        """This brush shading every canvas as it shades one ``width`` px wide, whatever its size: what
-        one compiled kernel of any canvas size (:func:`nsp.engine.kernels.shade_any_size`) computes for
-        the canvases of the same detail (oil's bristle scales); None where the paint is sampled to
-        each size (a user's texture)."""
+        """This brush shading every canvas as one ``width`` px wide, for one compiled kernel of any size
+        (:func:`nsp.engine.kernels.shade_any_size`); None where the paint is sampled to each size (a texture)."""
         return self
 
     def varies(self, width: int) -> bool:
@@ -105,10 +93,8 @@ class Brush:
     def validate(self, x: Tensor) -> None:
         """Raise ``ValueError`` naming the problem if ``x`` is not a (N, d) array in [0, 1]."""
         if x.ndim != 2 or x.shape[1] != self.d:
-            raise ValueError(
-                f"{self.name} strokes need {self.d} parameters ({', '.join(self.params)}), "
-                f"got an array of shape {tuple(x.shape)}"
-            )
+            raise ValueError(f"{self.name} strokes need {self.d} parameters ({', '.join(self.params)}), "
+                             f"got an array of shape {tuple(x.shape)}")
         if not torch.isfinite(x).all() or x.min() < 0 or x.max() > 1:
             bad = x[~((x >= 0) & (x <= 1))]
             raise ValueError(f"stroke parameters must lie in [0, 1], got {bad.flatten()[0].item():g}")
@@ -130,29 +116,24 @@ class Brush:
         raise NotImplementedError
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
-        """Colour (P, 3, N) and alpha (P, N) of strokes ``x`` (P, d) at the given pixels.
-
-        ``coverage`` maps a signed distance in pixels (negative inside) to [0, 1]: a box filter for
-        antialiased rendering, a sigmoid for the soft, differentiable mode.
-        """
+        """Colour (P, 3, N) and alpha (P, N) of strokes ``x`` (P, d) at the given pixels. ``coverage``
+        maps a signed distance in pixels (negative inside) to [0, 1]: a box filter for antialiased
+        rendering, a sigmoid for the soft, differentiable mode."""
         raise NotImplementedError
 
     # --- formats: implemented by each brush ---------------------------------------------------
     def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
-        """(definitions, element) drawing stroke number ``index`` with parameters ``p`` (d,) on a
-        ``height``×``width`` canvas."""
+        """(definitions, element) drawing stroke number ``index``, parameters ``p`` (d,), on a H×W canvas."""
         raise NotImplementedError
 
     def svg_elements(self, strokes: np.ndarray, height: int, width: int, first: int = 0) -> Iterator[tuple[str, str]]:
-        """:meth:`svg` of each stroke (N, d), numbers ``first``, … of the painting, in order (a brush
-        may make them together). A brush whose paint has no vector form (``svg_painted``) has none:
-        its SVG holds each stroke's paint as an image (:func:`nsp.brushes.svg.image_element`)."""
+        """:meth:`svg` of each stroke (N, d), numbers ``first``, … of the painting, in order; none where the
+        paint has no vector form (``svg_painted``: an image each, :func:`nsp.brushes.svg.image_element`)."""
         for index, p in enumerate(strokes, first):
             yield self.svg(index, p, height, width)
 
     def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple["Brush", np.ndarray]:
-        """Strokes in the reference implementation's convention (``x_ctt`` (N, c), ``x_color``
-        (N, k), ``x_alpha`` (N, 1), pixel sizes at canvas width ``width``) -> the brush that paints
-        them and their parameters (N, d) in [0, 1]. ``x_ctt``'s columns are the shape parameters', in
-        this brush's order (the marker pen's have a second radius, unused)."""
+        """Strokes in the reference implementation's convention (``x_ctt`` (N, c): the shape parameters in
+        this brush's order, ``x_color`` (N, k), ``x_alpha`` (N, 1), pixel sizes at canvas width ``width``)
+        -> the brush that paints them and their parameters (N, d) in [0, 1]."""
         raise NotImplementedError

@@ -1,31 +1,24 @@
 """The oil brush's bristle model: paint laid by a brush of bristles, evaluated at every pixel.
 
-The paint's thickness over a stroke is a height field H: value noise stretched ``STRETCH`` times
-along the stroke (bristle streaks), summed over four scales from clumps of bristles (three track
-widths) to fibres (a sixth of one), each a fixed width in canvas units (``TRACK`` canvas widths a
-track), so a large stroke carries more streaks than a small one and a larger render shows finer
-ones, never magnified texels. A scale is drawn only where its cells span enough pixels to be
-seen; below that it is replaced by its mean (a band-limited pattern, like a mipmap), and at the
-painter's working resolution, where every scale is below a pixel, the soft mode sees the mean
-paint of the same model.
+The paint's thickness over a stroke is a height field H: value noise stretched ``STRETCH`` times along
+the stroke (bristle streaks), summed over four scales from clumps of bristles (three track widths) to
+fibres (a sixth of one), each a fixed width in canvas units (``TRACK`` canvas widths a track): a large
+stroke carries more streaks than a small one, a larger render finer ones, never magnified texels. A
+scale too fine to be seen is its mean (like a mipmap): the painter, working small, sees the mean paint.
 
-- **Load**: paint lies where H exceeds a threshold set by the dryness D, so that a fraction
-  1 − D is covered; D rises toward the tail (dry brush: the load breaks up along the streaks)
-  and toward the sides (ragged edges). Scales too fine to draw blur the threshold instead.
+- **Load**: paint covers a fraction 1 − D, where H exceeds a threshold set by the dryness D, which
+  rises toward the tail (dry brush) and the sides (ragged edges); undrawn scales blur the threshold.
 - **Head**: rounded; the tail's outer streaks end early (a taper).
-- **Impasto**: H's slope across the stroke, lit from the upper left: slopes facing the light are
-  lighter, the others darker, by as much (the mean colour is the stroke's); thicker streaks are a
-  little darker too.
+- **Impasto**: H's slope across the stroke, lit from the upper left: lighter facing the light,
+  darker away (the mean colour is the stroke's); thicker streaks are a little darker too.
 
-Randomness comes from an integer hash of the stroke's key (its index in the painting and the
-painting's seed) and the lattice cell: deterministic, different for every stroke, identical at
-every render size.
-"""
+Randomness: an integer hash of the stroke's key (its index and the painting's seed) and the lattice
+cell: deterministic, different for every stroke, identical at every render size."""
 from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import torch
 from torch import Tensor
@@ -74,10 +67,8 @@ def ramp(lo: float, hi: float, x: Tensor) -> Tensor:
 @functools.cache  # asked at every render
 def detail(scale: float) -> tuple[bool, ...]:
     """Which of the model's parts are drawn on a canvas ``scale`` px wide: the tracks' ragged starts,
-    then each of :data:`SCALES` (a scale is drawn from a weight of :data:`FAINTEST`); none: each
-    stroke's paint is the model's mean, whatever its key. Every width with the same parts is
-    shaded by the same operations, so one compiled kernel serves them all
-    (:func:`nsp.engine.kernels.shade_any_size`)."""
+    then each of :data:`SCALES` (drawn from a weight of :data:`FAINTEST`); none: the model's mean.
+    Widths with the same parts share one compiled kernel (:func:`nsp.engine.kernels.shade_any_size`)."""
     width = torch.tensor(TRACK * scale, dtype=torch.float64, device="cpu")  # a number, not a pixel
     scales = tuple(bool(seen(cells * width) >= FAINTEST) for cells in SCALES)
     return (bool(seen(width) > 0) and any(scales), *scales)
@@ -96,12 +87,10 @@ def light_across(theta: Tensor) -> tuple[Tensor, Tensor]:
     return LIGHT[0] * cos + LIGHT[1] * sin, -LIGHT[0] * sin + LIGHT[1] * cos
 
 
-@dataclass(frozen=True)
-class Surface:
-    """Paint on a stroke's pixels: ``cover`` in [0, 1] (P, N), the alpha inside the stroke's
-    ``outline`` (a signed distance in px, negative inside, (P, N)); its colour is the stroke's
-    colour there times ``shade`` ((P, N); None: 1, where no detail is drawn): linear in the
-    stroke's colours, as colour mode's recolouring needs."""
+class Surface(NamedTuple):
+    """Paint on a stroke's pixels: ``cover`` in [0, 1], the alpha inside the stroke's ``outline`` (a
+    signed distance in px, negative inside); its colour, the stroke's times ``shade`` (None: 1, no
+    detail drawn), linear in the stroke's colours as colour mode's recolouring needs. (P, N) each."""
 
     cover: Tensor
     shade: Tensor | None
@@ -123,11 +112,10 @@ def value_noise(cross: Tensor, long: Tensor, seed: Tensor) -> tuple[Tensor, Tens
 
 def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key: Tensor, scale: float | Tensor,
             light: tuple[Tensor, Tensor] | None, parts: tuple[bool, ...]) -> Surface:
-    """The bristle model at pixels ``s`` px from the head (``u`` = s / length, clamped to [0, 1])
-    and ``c`` px across the centre line (P, N), of strokes ``length`` px long and 2·``half_h`` px
-    high (P,), keyed ``key`` (P, 1), on a canvas ``scale`` px wide (a number, or a 0-d tensor in a
-    kernel of any size), its ``parts`` drawn (:func:`detail` of a width); ``light`` from
-    :func:`light_across` (None: no impasto)."""
+    """The bristle model at pixels ``s`` px from the head (``u`` = s / length in [0, 1]) and ``c`` px
+    across the centre line (P, N), of strokes ``length`` px long and 2·``half_h`` px high (P,), keyed
+    ``key`` (P, 1), on a canvas ``scale`` px wide (a 0-d tensor in a kernel of any size), its ``parts``
+    drawn (:func:`detail`); ``light`` from :func:`light_across` (None: no impasto)."""
     half_h = half_h.clamp(min=0.5)[:, None]
     side = (c / half_h).abs().clamp(max=1)
     dry = 1 - (1 - TAIL[1] * ramp(TAIL[0], 1.0, u)) * (1 - SIDES[1] * ramp(SIDES[0], 1.0, side))
@@ -143,8 +131,7 @@ def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key
         jag, _ = value_noise(c / width, torch.zeros_like(c), key + 0x2F6B2E1D)  # each track starts a little early or late
         head = head + seen(width) * torch.minimum(0.2 * length[:, None], RAGGED * width) * (jag - 0.5)
     outline = torch.maximum(head, tail)
-    height = slope = 0
-    unseen = 0.0  # the variance of H left undrawn
+    height, slope, unseen = 0, 0, 0.0  # unseen: the variance of H left undrawn
     for k, (cells, grain, relief, drawn) in enumerate(zip(SCALES, GRAIN, RELIEF, scales)):
         cell = cells * width  # pixels
         weight = seen(cell)

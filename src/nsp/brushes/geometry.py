@@ -25,10 +25,8 @@ def to_pixels(x: Tensor, y: Tensor, height: int, width: int) -> tuple[Tensor, Te
 
 
 def rotated_frame(px: Tensor, py: Tensor, cx: Tensor, cy: Tensor, theta: Tensor) -> tuple[Tensor, Tensor]:
-    """Coordinates of pixels in a frame centred at (cx, cy) whose first axis points at angle θ·π.
-
-    The angle is measured from +x towards +y (y points down). Returns (along, across), each (P, N).
-    """
+    """Coordinates (along, across), each (P, N), of pixels in a frame centred at (cx, cy) whose first
+    axis points at angle θ·π, measured from +x towards +y (y points down)."""
     angle = theta * math.pi
     cos, sin = torch.cos(angle)[:, None], torch.sin(angle)[:, None]
     dx, dy = px - cx[:, None], py - cy[:, None]
@@ -43,51 +41,16 @@ def box(along: Tensor, across: Tensor, half_w: Tensor, half_h: Tensor) -> Tensor
     return outside + torch.maximum(qx, qy).clamp(max=0)
 
 
-def bezier_polyline(p0: Tensor, p1: Tensor, p2: Tensor, segments: int) -> Tensor:
-    """Points of the quadratic Bézier B(t)=(1−t)²P0+2(1−t)tP1+t²P2 at t = k/segments.
-
-    p0, p1, p2: (P, 2). Returns (P, segments + 1, 2).
-    """
-    t = torch.linspace(0, 1, segments + 1, device=p0.device, dtype=p0.dtype)[None, :, None]
-    return (1 - t) ** 2 * p0[:, None] + 2 * (1 - t) * t * p1[:, None] + t**2 * p2[:, None]
-
-
-def segments_for(height: int, width: int) -> int:
-    """Polyline segments for a Bézier at this resolution: chord error stays below about a pixel."""
-    return int(min(32, max(8, math.ceil(math.sqrt(max(height, width)) / 1.4))))
-
-
-def project_polyline(points: Tensor, px: Tensor, py: Tensor) -> tuple[Tensor, Tensor, Tensor, Tensor]:
-    """Project pixels onto each segment of a polyline.
-
-    points: (P, K+1, 2); px, py: (P, N).
-    Returns (along, perp, length, s), each (P, N, K): the signed position along segment k from its
-    start (pixels), the distance from its line, its length, and the clamped fraction s ∈ [0, 1].
-    """
-    a, b = points[:, None, :-1], points[:, None, 1:]  # (P, 1, K, 2)
-    ab = b - a
-    length = torch.sqrt((ab**2).sum(-1) + _EPS)  # (P, 1, K)
-    ux, uy = ab[..., 0] / length, ab[..., 1] / length
-    apx, apy = px[..., None] - a[..., 0], py[..., None] - a[..., 1]  # (P, N, K)
-    along = apx * ux + apy * uy
-    perp = (apx * uy - apy * ux).abs()
-    s = (along / length).clamp(0, 1)
-    return along, perp, length.expand_as(along), s
-
-
 def _cbrt(v: Tensor) -> Tensor:
     return v.sign() * v.abs().pow(1 / 3)
 
 
 def _distance_minima(p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor) -> tuple[Tensor, Tensor, Tensor]:
     """The (up to two) local minima t ∈ [0, 1] of |B(t) − p| for B(t) = P0 + 2t·a + t²·b, the later
-    first, and the maximum between them (the minimum where there is one): (P, N) each.
-
-    Setting d|B(t) − p|²/dt = 0 gives the cubic (b·b)t³ + 3(a·b)t² + (2a·a + m·b)t + m·a = 0 with
-    m = P0 − p; it is solved in closed form (Cardano where it has one real root, returned twice, or
-    the trigonometric form for three, where the middle root is a distance maximum). Nearly straight
-    strokes use the chord instead. p0, a, b: (P, 2); px, py: (P, N).
-    """
+    first, and the maximum between them (the minimum where there is one): (P, N) each, for p0, a, b
+    (P, 2) and px, py (P, N). d|B(t) − p|²/dt = 0 is the cubic (b·b)t³ + 3(a·b)t² + (2a·a + m·b)t + m·a = 0,
+    m = P0 − p, solved in closed form (Cardano for one real root, returned twice; the trigonometric form
+    for three, the middle one a distance maximum); nearly straight strokes use the chord instead."""
     bb, ab, aa = (b * b).sum(1, keepdim=True), (a * b).sum(1, keepdim=True), (a * a).sum(1, keepdim=True)
     straight = bb <= 1e-6 * aa + 1e-12
     k = 1 / torch.where(straight, torch.ones_like(bb), bb)
@@ -122,22 +85,18 @@ def _reach(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, 
 
 def _newton_step(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper) -> Tensor:
     """One safeguarded Newton step on φ(t) = |B(t) − p| − taper·t from t (P, N), kept in [0, 1],
-    carrying the implicit-function gradient dt/dθ = −(∂φ'/∂θ) / φ'' of the minimum it refines.
-
-    The step is taken only where it lowers φ, so a pixel on the curve (where |B − p| has a kink) or
-    an inflection of φ never moves to a worse disc. The gradient does not depend on whether it was:
-    where the step lowers φ by no more than rounding, t is already the minimum, and the minimum moves
-    with θ all the same (a gradient that came and went with a comparison of two equal numbers
-    differed from one CPU to another). A t at an end (0 or 1) stays there: no gradient.
-    """
+    carrying the implicit-function gradient dt/dθ = −(∂φ'/∂θ) / φ'' of the minimum it refines. The
+    step is taken only where it lowers φ, so a pixel on the curve (where |B − p| has a kink) or an
+    inflection of φ never moves to a worse disc; the gradient does not depend on whether it was (a step
+    that gains no more than rounding starts at the minimum already). An end (0 or 1): no gradient."""
     taper = None if taper is None else taper[:, None]
     qx = p0[:, :1] + t * (2 * a[:, :1] + t * b[:, :1]) - px
     qy = p0[:, 1:] + t * (2 * a[:, 1:] + t * b[:, 1:]) - py
     dx, dy = 2 * (a[:, :1] + t * b[:, :1]), 2 * (a[:, 1:] + t * b[:, 1:])  # B'(t)
     norm = torch.sqrt(qx * qx + qy * qy + _EPS)
-    slope = (qx * dx + qy * dy) / norm - (0 if taper is None else taper)  # φ'(t)
+    along = (qx * dx + qy * dy) / norm
+    slope = along - (0 if taper is None else taper)  # φ'(t)
     with torch.no_grad():
-        along = (qx * dx + qy * dy) / norm
         curvature = (dx * dx + dy * dy + 2 * (qx * b[:, :1] + qy * b[:, 1:]) - along * along) / norm  # φ''(t)
         # Step from an end only when φ falls inwards (a growing disc reaching past the end).
         s = slope.detach()
@@ -151,35 +110,26 @@ def _newton_step(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Te
     return t - (step - step.detach())
 
 
-def bezier_nearest(
-    p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None = None, samples: int = 12,
-) -> Tensor:
+def bezier_nearest(p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None = None,
+                   samples: int = 12) -> Tensor:
     """t ∈ [0, 1] minimizing φ(t) = |B(t) − p| − taper·t for each pixel: (P, N).
 
-    With ``taper`` = r2 − r0 this finds the disc of a swept, linearly growing radius that reaches
-    furthest towards p. φ may then have several local minima (a hooked curve passes a pixel twice; a
-    strong taper lets a far, wide disc win), so both closed-form distance minima compete with
-    ``samples`` evenly spaced t (12 leave no holes in tests/test_brushes.py's brute-force check).
-    Two safeguarded Newton steps on φ refine the winner; the last runs with autograd, so t carries
-    the implicit-function gradient dt/dθ = −(∂φ'/∂θ) / φ''.
-    p0, p1, p2: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None.
-    """
+    With ``taper`` = r2 − r0, the disc of a swept, linearly growing radius reaching furthest towards p:
+    φ may then have several local minima (a hooked curve, a far wide disc), so both closed-form distance
+    minima compete with ``samples`` evenly spaced t (12 leave no holes in tests/test_brushes.py); two
+    safeguarded Newton steps refine the winner, the last with autograd (:func:`_newton_step`).
+    p0, p1, p2: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None."""
     return _nearest(p0, p1, p2, px, py, taper, samples)[0]
 
 
-def swept_discs(
-    p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor, samples: int = 12,
-) -> tuple[Tensor, Tensor, Tensor]:
+def swept_discs(p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor,
+                samples: int = 12) -> tuple[Tensor, Tensor, Tensor]:
     """Discs of a linearly growing radius (``taper`` = r2 − r0, (P,) pixels) swept along B, drawn in
-    order of t: per pixel, the t of the disc reaching furthest towards it (as :func:`bezier_nearest`),
+    order of t: per pixel, the t of the disc reaching furthest towards it (:func:`bezier_nearest`),
     (P, N); the strokes that pass some pixel twice, (R,) indices; and their t of the later pass, (R, N).
 
-    Where the curve passes a pixel twice (a stroke curling over itself: two distance minima), the
-    later pass's discs are drawn on top, so where they cover the pixel their colour shows; elsewhere
-    the two t agree. Strokes with one distance minimum at every pixel have no later pass, and most
-    strokes are those, so the rest alone are computed. Both t carry gradients (safeguarded Newton
-    steps on φ, as :func:`bezier_nearest`).
-    """
+    Where a stroke curls over a pixel (two distance minima), the later pass's discs are drawn on top;
+    elsewhere the two t agree. Only strokes with a later pass compute it; both t carry gradients."""
     t, (t_last, t_first, between) = _nearest(p0, p1, p2, px, py, taper, samples)
     rows = (t_last != t_first).any(1).nonzero()[:, 0]
     p0, a, b = p0[rows], (p1 - p0)[rows], (p0 - 2 * p1 + p2)[rows]
@@ -206,30 +156,18 @@ def _stationary(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Ten
     return t - (step - step.detach())
 
 
-def nearest_search(
-    p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor, taper: Tensor | None, samples: int
-) -> tuple[Tensor, Tensor, Tensor, Tensor]:
-    """The search of :func:`bezier_nearest`, without gradient, for B(t) = P0 + 2t·a + t²·b: t (P, N)
-    after one safeguarded Newton step, and :func:`_distance_minima`'s three (P, N). Elementwise
-    over pixels.
-    p0, a, b: (P, 2) pixels; px, py: (P, N); taper: (P,) pixels or None."""
-    with torch.no_grad():
+def _nearest(p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None,
+             samples: int) -> tuple[Tensor, tuple[Tensor, Tensor, Tensor]]:
+    """:func:`bezier_nearest`'s t (P, N), and :func:`_distance_minima`'s three (no gradient)."""
+    a, b = p1 - p0, p0 - 2 * p1 + p2
+    with torch.no_grad():  # the search: elementwise over pixels, so a compiled kernel fuses it
         t1, t2, between = _distance_minima(p0, a, b, px, py)
         column = None if taper is None else taper[:, None]
         reach1, reach2 = _reach(t1, p0, a, b, px, py, column), _reach(t2, p0, a, b, px, py, column)
         t, reach = torch.where(reach1 <= reach2, t1, t2), torch.minimum(reach1, reach2)
-        for k in range(samples if taper is not None else 0):  # elementwise, so a compiled kernel fuses it
+        for k in range(samples if taper is not None else 0):
             at = k / (samples - 1)
             sampled = _reach(at, p0, a, b, px, py, column)
             t, reach = torch.where(sampled < reach, at, t), torch.minimum(sampled, reach)
-        return _newton_step(t, p0, a, b, px, py, taper), t1, t2, between
-
-
-def _nearest(
-    p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor | None, samples: int
-) -> tuple[Tensor, tuple[Tensor, Tensor, Tensor]]:
-    """:func:`bezier_nearest`'s t (P, N), and :func:`_distance_minima` (no gradient)."""
-    a, b = p1 - p0, p0 - 2 * p1 + p2
-    t, *minima = nearest_search(p0.detach(), a.detach(), b.detach(), px, py, None if taper is None else taper.detach(),
-                                samples)
-    return _newton_step(t, p0, a, b, px, py, taper), tuple(minima)
+        t = _newton_step(t, p0, a, b, px, py, taper)
+    return _newton_step(t, p0, a, b, px, py, taper), (t1, t2, between)

@@ -6,7 +6,6 @@ import dataclasses
 import functools
 import hashlib
 import math
-from dataclasses import dataclass, field
 from typing import ClassVar
 from pathlib import Path
 
@@ -17,7 +16,7 @@ from torch import Tensor
 
 from nsp.brushes import bristles
 from nsp.brushes.base import Brush, Pixels
-from nsp.brushes.tape import RECTANGLE, rectangle, rectangle_extent
+from nsp.brushes.tape import RECTANGLE, Rectangle, rectangle
 from nsp.brushes.texture import EMBEDDED, load_texture
 from nsp.brushes.geometry import box
 
@@ -37,16 +36,15 @@ def _digest(source: str) -> str:
     return hashlib.sha1(data).hexdigest()[:12]
 
 
-@dataclass(frozen=True, eq=False)
-class OilPaint(Brush):
-    """Oil paint. Its paint is the bristle model (:mod:`nsp.brushes.bristles`), or a user's
-    grayscale image stretched over each stroke (``texture_path``: a path, or an embedded PNG, see
-    :mod:`nsp.brushes.texture`); ``impasto`` lights its relief."""
+@dataclasses.dataclass(frozen=True, eq=False)
+class OilPaint(Rectangle):
+    """Oil paint whose paint is the bristle model (:mod:`nsp.brushes.bristles`), or a user's grayscale image
+    stretched over each stroke (``texture_path``, :mod:`nsp.brushes.texture`); ``impasto`` lights its relief."""
 
     svg_painted: ClassVar[bool] = True  # its paint has no vector form
     impasto: bool = True
     detail: tuple[bool, ...] | None = None  # the bristle model's parts drawn at every size (bristles.detail); None: the canvas's
-    _cache: dict = field(default_factory=dict, repr=False)
+    _cache: dict = dataclasses.field(default_factory=dict, repr=False)
 
     def plain(self) -> "OilPaint":
         return self._with(bristles.detail(0))
@@ -73,55 +71,35 @@ class OilPaint(Brush):
         detail = "" if self.detail is None else "-detail" + "".join(str(int(part)) for part in self.detail)
         return texture + ("" if self.impasto else "-flat") + detail
 
-    def texture(self, device, dtype, canvas_width: int | None = None) -> Tensor:
-        """A user's texture as (1, 1, h, w) on ``device``.
-
-        For a canvas narrower than the texture it is area-downsampled to at most the canvas width,
-        so small renders are not aliased (a mipmap level).
-        """
-        key = (str(device), dtype, canvas_width)
-        if key not in self._cache:
-            tex = load_texture(self.texture_path)[None, None].to(device=device, dtype=dtype)
-            if canvas_width is not None and canvas_width < tex.shape[-1]:
-                scale = max(canvas_width, 16) / tex.shape[-1]
-                size = (max(4, round(tex.shape[-2] * scale)), max(16, round(tex.shape[-1] * scale)))
-                tex = F.interpolate(tex, size=size, mode="area")
-            self._cache[key] = tex
-        return self._cache[key]
-
-    def extent(self, x: Tensor, height: int, width: int) -> Tensor:
-        return rectangle_extent(x, height, width)
-
-    def bound(self, x: Tensor, pix: Pixels) -> Tensor:
-        return box(*rectangle(x, pix))
-
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
-        alpha, paint, u = self._surface(x, pix, coverage)
+        along, across, half_w, half_h = rectangle(x, pix)
+        light = bristles.light_across(x[:, self.column("theta")]) if self.impasto else None
+        length, s = 2 * half_w, along + half_w[:, None]  # s: pixels from the head
+        u = (s / length.clamp(min=0.5)[:, None]).clamp(0, 1)  # 0 at the head, 1 at the tail
+        edge = box(along, across, half_w, half_h)
+        if self.texture_path is None:
+            key = pix.key if pix.key is not None else torch.zeros_like(along[:, :1], dtype=torch.int64)
+            paint = bristles.surface(s, across, u, length, half_h, key, pix.width, light, self._parts(pix.width))
+        else:
+            paint = self._textured(u, across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5, pix.width, light)
+        alpha = coverage(torch.maximum(edge, paint.outline)) * paint.cover
         c0, c2 = x[:, self.columns("R0", "B0"), None], x[:, self.columns("R2", "B2"), None]
         color = c0 + (c2 - c0) * u[:, None]
         if paint.shade is not None:
             color = color * paint.shade[:, None]
         return color * (alpha > 0)[:, None], alpha
 
-    def _surface(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, bristles.Surface, Tensor]:
-        """Alpha (P, N), the paint (:class:`~nsp.brushes.bristles.Surface`) and u ∈ [0, 1] (P, N),
-        0 at the head, of strokes ``x`` (P, d) at the pixels ``pix``."""
-        along, across, half_w, half_h = rectangle(x, pix)
-        light = bristles.light_across(x[:, self.column("theta")]) if self.impasto else None
-        length = 2 * half_w
-        s = along + half_w[:, None]  # pixels from the head
-        u = (s / length.clamp(min=0.5)[:, None]).clamp(0, 1)
-        edge = box(along, across, half_w, half_h)
-        if self.texture_path is None:
-            key = pix.key if pix.key is not None else torch.zeros_like(along[:, :1], dtype=torch.int64)
-            paint = bristles.surface(s, across, u, length, half_h, key, pix.width, light, self._parts(pix.width))
-            return coverage(torch.maximum(edge, paint.outline)) * paint.cover, paint, u
-        paint = self._textured(u, across / (2 * half_h.clamp(min=0.5))[:, None] + 0.5, pix.width, light)
-        return coverage(edge) * paint.cover, paint, u
-
     def _textured(self, u: Tensor, v: Tensor, width: int, light) -> bristles.Surface:
-        """A user's texture as paint: its values give the cover and, as a height, the relief."""
-        texture = self.texture(u.device, u.dtype, width)
+        """A user's texture as paint: its values give the cover and, as a height, the relief (its outline: −∞,
+        the rectangle alone); on a canvas narrower than itself, area-downsampled to its width (a mipmap level)."""
+        key = (str(u.device), u.dtype, width)
+        if (texture := self._cache.get(key)) is None:
+            texture = load_texture(self.texture_path)[None, None].to(device=u.device, dtype=u.dtype)
+            if width < texture.shape[-1]:
+                scale = max(width, 16) / texture.shape[-1]
+                size = (max(4, round(texture.shape[-2] * scale)), max(16, round(texture.shape[-1] * scale)))
+                texture = F.interpolate(texture, size=size, mode="area")
+            self._cache[key] = texture
         value = sample(texture, u, v)
         shade = 0.7 + 0.3 * value
         if light is not None:
@@ -138,13 +116,7 @@ class OilPaint(Brush):
 
 
 OILPAINT = OilPaint(
-    name="oilpaint",
-    params=RECTANGLE + ("R0", "G0", "B0", "R2", "G2", "B2"),
-    kinds=("x", "y", "size", "size", "angle") + ("color",) * 6,
-    shape=(0, 1, 2, 3, 4),
-    color=tuple(range(5, 11)),
-    alpha=None,
-    description="opaque rotated rectangle of bristle paint; colour blends head to tail",
-    reference=(5, 6),
-    softness=0.5,
+    name="oilpaint", params=RECTANGLE + ("R0", "G0", "B0", "R2", "G2", "B2"),
+    kinds=("x", "y", "size", "size", "angle") + ("color",) * 6, shape=(0, 1, 2, 3, 4), color=tuple(range(5, 11)),
+    description="opaque rotated rectangle of bristle paint; colour blends head to tail", reference=(5, 6), softness=0.5,
 )

@@ -18,10 +18,9 @@ VARIANTS = (TRANSLUCENT_TAPE,)  # brushes of the same name with other parameters
 
 def get_brush(name: str, texture: str | None = None, params: list[str] | None = None, *, seed: int = 0,
               impasto: bool = True) -> Brush:
-    """The brush called ``name``; ``texture`` is a grayscale image path for ``oilpaint``; ``params``,
-    the parameter names a stroke file lists, pick a variant that has exactly those; ``seed``, with
-    each stroke's index, draws a brush's stroke-to-stroke variation (oil's bristles); ``impasto``
-    lights oil paint's relief."""
+    """The brush called ``name``; ``texture``: a grayscale image path for ``oilpaint``; ``params``: the
+    parameter names a stroke file lists, picking the variant that has exactly those; ``seed``: with each
+    stroke's index, draws oil's stroke-to-stroke variation; ``impasto``: lights oil paint's relief."""
     if name not in BRUSHES:
         raise BadInput(f"unknown brush '{name}', expected one of: {', '.join(BRUSHES)}")
     brush = next((b for b in VARIANTS if b.name == name and list(b.params) == params), BRUSHES[name])

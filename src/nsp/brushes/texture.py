@@ -1,9 +1,6 @@
-"""A user's grayscale image as the oil brush's texture (nsp's own is :mod:`nsp.brushes.bristles`).
-
-A texture comes from a path given on the command line (``brush.texture=PATH``) or embedded in a
-stroke file as a PNG data URI, which is how a stroke file carries it: a stroke file never names a
-file for nsp to read.
-"""
+"""A user's grayscale image as the oil brush's texture (nsp's own is :mod:`nsp.brushes.bristles`):
+a path on the command line (``brush.texture=PATH``), or a PNG data URI embedded in a stroke file,
+which never names a file for nsp to read."""
 from __future__ import annotations
 
 import base64

@@ -9,16 +9,14 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import bezier
-from nsp.brushes.base import Brush, Pixels
+from nsp.brushes.base import Pixels
 from nsp.brushes.geometry import swept_discs
-from nsp.brushes.svg import bezier_points
 from nsp.colors import hex_color
 
 
-class Watercolor(Brush):
+class Watercolor(bezier.Bezier):
     def extent(self, x: Tensor, height: int, width: int) -> Tensor:
-        r0, r2 = x[:, self.column("r0")], x[:, self.column("r2")]
-        return bezier.extent(x, torch.maximum(r0, r2) * width / 4, height, width)
+        return bezier.extent(x, torch.maximum(*self._radii(x, width))[:, 0], height, width)
 
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
         return bezier.distance_bound(x, pix, *self._radii(x, pix.width))
@@ -34,14 +32,12 @@ class Watercolor(Brush):
         curled = Pixels(pix.px.expand_as(t)[rows], pix.py.expand_as(t)[rows], pix.height, pix.width)
         over = coverage(self._disc_distance(pts[rows], later, r0[rows], r2[rows], curled))
         color = color.index_add(0, rows, over[:, None] * (c2 - c0)[rows] * (later - t[rows])[:, None])
-        fg = color * (cov > 0)[:, None]
-        return fg, x[:, self.alpha, None] * cov
+        return color * (cov > 0)[:, None], x[:, self.alpha, None] * cov
 
     def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
-        """The swept discs as pieces in order of t, each an outline and its end discs filled with
-        its colour gradient; a later piece covers an earlier one where the stroke curls over itself,
-        as the discs do. The more the stroke turns, the more pieces (one for a straight stroke)."""
-        pts = bezier_points(p, height, width)
+        """The swept discs as pieces in order of t (more as the stroke turns, one if straight), each an
+        outline and its end discs filled with its colour gradient, a later piece over an earlier one."""
+        pts = bezier.svg_points(p, height, width)
         start, end = pts[1] - pts[0], pts[2] - pts[1]
         turn = math.atan2(abs(start[0] * end[1] - start[1] * end[0]), float(start @ end))
         pieces = 1 + math.ceil(turn / (math.pi / 8))
@@ -67,9 +63,6 @@ class Watercolor(Brush):
                         f'r="{radius[k, -1, 0]:.3f}"/></g>')
         return "".join(defs), f'<g opacity="{p[self.alpha]:.4f}">{"".join(body)}</g>'
 
-    def from_reference(self, ctt: np.ndarray, color: np.ndarray, alpha: np.ndarray, width: int) -> tuple[Brush, np.ndarray]:
-        return self, bezier.from_reference(ctt, ctt[:, self.columns("r0", "r2")], color, alpha, width)
-
     def _radii(self, x: Tensor, width: int | Tensor) -> tuple[Tensor, Tensor]:
         """r0, r2 of strokes x (P, d) in pixels on a canvas ``width`` px wide: (P, 1) each."""
         return x[:, self.columns("r0")] * width / 4, x[:, self.columns("r2")] * width / 4
@@ -82,12 +75,7 @@ class Watercolor(Brush):
 
 
 WATERCOLOR = Watercolor(
-    name="watercolor",
-    params=bezier.CONTROL + ("r0", "r2", "R0", "G0", "B0", "R2", "G2", "B2", "A"),
-    kinds=("x", "y", "x", "y", "x", "y", "size", "size") + ("color",) * 6 + ("alpha",),
-    shape=tuple(range(8)),
-    color=tuple(range(8, 14)),
-    alpha=14,
-    description="quadratic Bézier swept by discs; radius and colour interpolate from P0 to P2",
-    reference=(8, 6),
+    name="watercolor", params=bezier.CONTROL + ("r0", "r2", "R0", "G0", "B0", "R2", "G2", "B2", "A"), alpha=14,
+    kinds=("x", "y") * 3 + ("size",) * 2 + ("color",) * 6 + ("alpha",), shape=tuple(range(8)), color=tuple(range(8, 14)),
+    reference=(8, 6), description="quadratic Bézier swept by discs; radius and colour interpolate from P0 to P2",
 )

@@ -1,6 +1,5 @@
-"""The engine's per-pair work: for each (stroke, tile) pair, whether the stroke can reach the tile,
-and the colour and alpha it paints there. Elementwise over pairs and pixels, this is most of a
-render's time, and what :mod:`nsp.engine.fused` compiles."""
+"""The engine's per-pair work, elementwise, most of a render's time and what :mod:`nsp.engine.fused`
+compiles: for each (stroke, tile) pair, whether the stroke can reach the tile, and what it paints there."""
 from __future__ import annotations
 
 import functools
@@ -14,30 +13,25 @@ from nsp.brushes.geometry import antialiased, soft
 
 
 def tile_offsets(tile: int, like: Tensor) -> tuple[Tensor, Tensor]:
-    """(tile²,) x and y offsets of a tile's pixels from its corner: pixel n lies on row n // tile,
-    column n % tile."""
+    """(tile²,) x and y offsets of a tile's pixels from its corner: pixel n on row n // tile, column n % tile."""
     offsets = torch.arange(tile, device=like.device, dtype=like.dtype)
     return offsets.repeat(tile), offsets.repeat_interleave(tile)
 
 
 def near_tiles(brush: Brush, x: Tensor, t: Tensor, *, height: int, width: int, tile: int, margin: float) -> Tensor:
-    """(P,) whether stroke x[p] (P, d) can reach tile t[p] (P,) of a ``height``×``width`` canvas cut
-    into ``tile``-pixel tiles, row by row, within ``margin`` px: the brush's 1-Lipschitz distance
-    bound at the tile's centre, which its pixel centres lie within (tile − 1)/√2 of."""
+    """(P,) whether stroke x[p] (P, d) can reach tile t[p] (P,), row by row, of a ``height``×``width`` canvas
+    within ``margin`` px: its 1-Lipschitz distance bound at the tile's centre, its pixels within (tile − 1)/√2."""
     cols = math.ceil(width / tile)
     cx = (t % cols).to(x.dtype) * tile + (tile - 1) / 2
     cy = torch.div(t, cols, rounding_mode="floor").to(x.dtype) * tile + (tile - 1) / 2
     return brush.bound(x, Pixels(cx[:, None], cy[:, None], height, width))[:, 0] <= (tile - 1) / math.sqrt(2) + margin
 
 
-def shade_tiles(
-    brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, *, height: int, width: int, tile: int,
-    softness: float | None,
-) -> tuple[Tensor, Tensor]:
-    """Foreground (P, 3, n) and alpha (P, n) of strokes x (P, d) keyed ``key`` (P,) int64 (see
-    :class:`~nsp.brushes.base.Pixels`) on tiles t (P,) (as in :func:`near_tiles`), whose pixel k
-    lies (dx[k], dy[k]) from the tile's corner (n = tile², :func:`tile_offsets`); ``softness``:
-    None for :func:`antialiased` edges, else :func:`soft`."""
+def shade_tiles(brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, *, height: int, width: int,
+                tile: int, softness: float | None) -> tuple[Tensor, Tensor]:
+    """Foreground (P, 3, n) and alpha (P, n) of strokes x (P, d) keyed ``key`` (P,) int64 (see :class:`Pixels`)
+    on tiles t (P,) (:func:`near_tiles`), whose pixel k lies (dx[k], dy[k]) from the tile's corner (n = tile²,
+    :func:`tile_offsets`); ``softness``: None for :func:`antialiased` edges, else :func:`soft`."""
     cols = -(-width // tile)  # ⌈width / tile⌉, of an int or a tensor
     px = ((t % cols) * tile).to(x.dtype)[:, None] + dx
     py = (torch.div(t, cols, rounding_mode="floor") * tile).to(x.dtype)[:, None] + dy
@@ -47,9 +41,8 @@ def shade_tiles(
 
 def shade_any_size(brush: Brush, x: Tensor, t: Tensor, key: Tensor, dx: Tensor, dy: Tensor, canvas: Tensor, *,
                    tile: int, softness: float | None) -> tuple[Tensor, Tensor]:
-    """:func:`shade_tiles` on a canvas whose (height, width) is the tensor ``canvas`` (2,), not a
-    constant: one compiled kernel serves every canvas size, for a brush that shades them all alike
-    (a :meth:`~nsp.brushes.Brush.sized` form: oil's bristles of one detail)."""
+    """:func:`shade_tiles` on a canvas whose (height, width) is the tensor ``canvas`` (2,): one compiled
+    kernel serves every canvas size, for a brush that shades them all alike (:meth:`~nsp.brushes.Brush.sized`)."""
     return shade_tiles(brush, x, t, key, dx, dy, height=canvas[0], width=canvas[1], tile=tile, softness=softness)
 
 
