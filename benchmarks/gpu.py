@@ -2,6 +2,7 @@
 to end) and renderer training steps at the paper's scale, on the GPU torch sees.
 
     python benchmarks/gpu.py [--parts engine training paintings] [--repeats 5] [--strokes 5000] [--brushes ...]
+        [--static true false]
 
 Each engine and training rate is the fastest of ``--repeats`` timed calls after a warm-up, the GPU
 synchronized before each clock is read. A painting is ``python -m nsp.paint device=cuda`` in a fresh
@@ -52,29 +53,32 @@ def engine_rows(device: torch.device, repeats: int) -> list[str]:
     return rows
 
 
-def painting_rows(brushes: list[str], count: int, timeout: float) -> list[str]:
-    """``python -m nsp.paint device=cuda strokes=count brush=B`` per brush, a fresh process each,
-    stopped after ``timeout`` seconds."""
-    rows = ["| brush | strokes | whole command | painting | PSNR |", "|---|---:|---:|---:|---:|"]
+def painting_rows(brushes: list[str], count: int, timeout: float, static: list[str]) -> list[str]:
+    """``python -m nsp.paint device=cuda strokes=count brush=B renderer.static=S`` per brush and S
+    (true: every stroke on its whole block, nothing read back a step; false: culled on the host), a
+    fresh process each, stopped after ``timeout`` seconds."""
+    rows = ["| brush | strokes | renderer.static | whole command | painting | PSNR |", "|---|---:|---|---:|---:|---:|"]
     for name in brushes:
-        with tempfile.TemporaryDirectory() as folder:
-            run = Path(folder) / "run"
-            line = [sys.executable, "-m", "nsp.paint", "device=cuda", f"brush={name}", f"strokes={count}",
-                    "progress=false", f"hydra.run.dir={run}"]
-            start = time.perf_counter()
-            try:
-                done = subprocess.run(line, capture_output=True, text=True, timeout=timeout)
-            except subprocess.TimeoutExpired:
-                rows.append(f"| {name} | {count} | over {timeout} s: stopped | | |")
-                continue
-            seconds = time.perf_counter() - start
-            if done.returncode:
-                print(done.stderr[-3000:], file=sys.stderr)
-                rows.append(f"| {name} | {count} | failed (exit {done.returncode}) | | |")
-                continue
-            metrics = json.loads((run / "metrics.json").read_text())
-        rows.append(f"| {name} | {count} | {seconds:.1f} s | {metrics['painting_seconds']:.1f} s | {metrics['psnr']:.2f} dB |")
-        print(rows[-1], flush=True)
+        for choice in static:
+            with tempfile.TemporaryDirectory() as folder:
+                run = Path(folder) / "run"
+                line = [sys.executable, "-m", "nsp.paint", "device=cuda", f"brush={name}", f"strokes={count}",
+                        f"renderer.static={choice}", "progress=false", f"hydra.run.dir={run}"]
+                start = time.perf_counter()
+                try:
+                    done = subprocess.run(line, capture_output=True, text=True, timeout=timeout)
+                except subprocess.TimeoutExpired:
+                    rows.append(f"| {name} | {count} | {choice} | over {timeout} s: stopped | | |")
+                    continue
+                seconds = time.perf_counter() - start
+                if done.returncode:
+                    print(done.stderr[-3000:], file=sys.stderr)
+                    rows.append(f"| {name} | {count} | {choice} | failed (exit {done.returncode}) | | |")
+                    continue
+                metrics = json.loads((run / "metrics.json").read_text())
+            rows.append(f"| {name} | {count} | {choice} | {seconds:.1f} s | {metrics['painting_seconds']:.1f} s "
+                        f"| {metrics['psnr']:.2f} dB |")
+            print(rows[-1], flush=True)
     return rows
 
 
@@ -148,6 +152,8 @@ def main() -> None:
     parser.add_argument("--brushes", nargs="+", default=["watercolor", "oilpaint", "markerpen", "tape"],
                         help="the brushes painted with")
     parser.add_argument("--timeout", type=float, default=300, help="seconds a painting may take")
+    parser.add_argument("--static", nargs="+", default=["true", "false"], choices=["true", "false"],
+                        help="the painter's renderer.static settings painted with")
     parser.add_argument("--steps", type=int, default=10, help="training batches per timed call")
     args = parser.parse_args()
     if not torch.cuda.is_available():
@@ -155,7 +161,7 @@ def main() -> None:
     device = torch.device("cuda")
     measure = {"engine": lambda: engine_rows(device, args.repeats),
                "training": lambda: training_rows(device, args.repeats, args.steps),
-               "paintings": lambda: painting_rows(args.brushes, args.strokes, args.timeout)}
+               "paintings": lambda: painting_rows(args.brushes, args.strokes, args.timeout, args.static)}
     command = " ".join(["python", "benchmarks/gpu.py", *sys.argv[1:]])
     for part in args.parts:
         write(part, measure[part](), command, machine(), time.strftime("%Y-%m-%d"))

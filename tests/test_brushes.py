@@ -133,15 +133,6 @@ def test_unknown_brush_lists_the_valid_ones():
         get_brush("oil")
 
 
-@pytest.mark.parametrize("name", list(BRUSHES))
-def test_validate_names_the_bad_parameters(name):
-    brush = BRUSHES[name]
-    with pytest.raises(ValueError, match=f"{brush.d} parameters"):
-        brush.validate(torch.zeros(3, brush.d + 1))
-    with pytest.raises(ValueError, match=r"\[0, 1\], got 1.5"):
-        brush.validate(torch.full((2, brush.d), 1.5))
-
-
 def test_a_watercolor_stroke_curling_over_itself_shows_its_later_discs():
     """The reference draws a stroke's discs in order of t: where a hairpin's arms overlap, the later
     arm's colour shows, with no seam. Checked against discs painted one by one."""

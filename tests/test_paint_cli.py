@@ -102,8 +102,8 @@ def test_the_total_loss_is_logged_only_beside_two_terms_or_more():
 
     writer = Writer()
     board = TensorBoard(writer, torch.zeros(3, 4, 4))
-    board.on_step(None, 1, {"l1": 0.5, "total": 0.5})
-    board.on_step(None, 2, {"l1": 0.5, "ot": 0.1, "total": 0.51})
+    board.on_step(None, 1, {"l1": torch.tensor(0.5), "total": torch.tensor(0.5)})  # as the painter's, on its device
+    board.on_step(None, 2, {"l1": torch.tensor(0.5), "ot": torch.tensor(0.1), "total": torch.tensor(0.51)})
     board.flush()
     assert writer.scalars == ["loss/l1", "loss/l1", "loss/ot", "loss/total"]
 

@@ -90,15 +90,6 @@ class Brush:
         """Uniform random strokes over the whole parameter space: (n, d) in [0, 1]."""
         return torch.rand(n, self.d, generator=generator, device=device)
 
-    def validate(self, x: Tensor) -> None:
-        """Raise ``ValueError`` naming the problem if ``x`` is not a (N, d) array in [0, 1]."""
-        if x.ndim != 2 or x.shape[1] != self.d:
-            raise ValueError(f"{self.name} strokes need {self.d} parameters ({', '.join(self.params)}), "
-                             f"got an array of shape {tuple(x.shape)}")
-        if not torch.isfinite(x).all() or x.min() < 0 or x.max() > 1:
-            bad = x[~((x >= 0) & (x <= 1))]
-            raise ValueError(f"stroke parameters must lie in [0, 1], got {bad.flatten()[0].item():g}")
-
     # --- rendering: implemented by each brush -------------------------------------------------
     def extent(self, x: Tensor, height: int, width: int) -> Tensor:
         """Bounding boxes (P, 4) of strokes ``x`` (P, d) in pixels: x_min, y_min, x_max, y_max."""

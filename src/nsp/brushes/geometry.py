@@ -123,23 +123,23 @@ def bezier_nearest(p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, t
 
 
 def swept_discs(p0: Tensor, p1: Tensor, p2: Tensor, px: Tensor, py: Tensor, taper: Tensor,
-                samples: int = 12) -> tuple[Tensor, Tensor, Tensor]:
+                samples: int = 12) -> tuple[Tensor, Tensor]:
     """Discs of a linearly growing radius (``taper`` = r2 − r0, (P,) pixels) swept along B, drawn in
     order of t: per pixel, the t of the disc reaching furthest towards it (:func:`bezier_nearest`),
-    (P, N); the strokes that pass some pixel twice, (R,) indices; and their t of the later pass, (R, N).
+    and the t of the later pass where the stroke passes the pixel twice, else the same t: (P, N) each.
 
-    Where a stroke curls over a pixel (two distance minima), the later pass's discs are drawn on top;
-    elsewhere the two t agree. Only strokes with a later pass compute it; both t carry gradients."""
+    Where a stroke curls over a pixel (two distance minima), the later pass's discs are drawn on top.
+    Every pixel computes both (no stroke is picked out: nothing waits for the device); both t carry
+    gradients."""
     t, (t_last, t_first, between) = _nearest(p0, p1, p2, px, py, taper, samples)
-    rows = (t_last != t_first).any(1).nonzero()[:, 0]
-    p0, a, b = p0[rows], (p1 - p0)[rows], (p0 - 2 * p1 + p2)[rows]
-    px, py = px.expand_as(t)[rows], py.expand_as(t)[rows]
-    later = _stationary(t_last[rows], p0, a, b, px, py)
+    a, b = p1 - p0, p0 - 2 * p1 + p2
+    later = _stationary(t_last, p0, a, b, px, py)
     # Two passes count as two once the distance rises by a pixel between them; as they merge, the
-    # later one's weight goes smoothly to zero, so the colour has no seam there.
-    distance = [_reach(u[rows], p0, a, b, px, py, None) for u in (between, t_last, t_first)]  # stationary in t
+    # later one's weight goes smoothly to zero, so the colour has no seam there (one pass: all three
+    # t are the same, and so is the weight, zero).
+    distance = [_reach(u, p0, a, b, px, py, None) for u in (between, t_last, t_first)]  # stationary in t
     apart = (distance[0] - torch.maximum(distance[1], distance[2])).clamp(0, 1)
-    return t, rows, t[rows] + apart * (later - t[rows])
+    return t, t + apart * (later - t)
 
 
 def _stationary(t: Tensor, p0: Tensor, a: Tensor, b: Tensor, px: Tensor, py: Tensor) -> Tensor:

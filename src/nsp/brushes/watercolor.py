@@ -24,14 +24,11 @@ class Watercolor(bezier.Bezier):
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         pts = bezier.control_points(x, pix.height, pix.width)
         r0, r2 = self._radii(x, pix.width)
-        t, rows, later = swept_discs(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, (r2 - r0)[:, 0])
+        t, later = swept_discs(pts[:, 0], pts[:, 1], pts[:, 2], pix.px, pix.py, (r2 - r0)[:, 0])
         cov = coverage(self._disc_distance(pts, t, r0, r2, pix))
         c0, c2 = x[:, self.columns("R0", "B0"), None], x[:, self.columns("R2", "B2"), None]
-        color = c0 + (c2 - c0) * t[:, None]
-        # the later pass of the strokes that curl over a pixel, drawn on top
-        curled = Pixels(pix.px.expand_as(t)[rows], pix.py.expand_as(t)[rows], pix.height, pix.width)
-        over = coverage(self._disc_distance(pts[rows], later, r0[rows], r2[rows], curled))
-        color = color.index_add(0, rows, over[:, None] * (c2 - c0)[rows] * (later - t[rows])[:, None])
+        over = coverage(self._disc_distance(pts, later, r0, r2, pix))  # the later pass where a stroke curls, on top
+        color = c0 + (c2 - c0) * (t + over * (later - t))[:, None]
         return color * (cov > 0)[:, None], x[:, self.alpha, None] * cov
 
     def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:

@@ -23,21 +23,17 @@ from nsp.engine.kernels import near_tiles, shade_tiles, shade_any_size, shade_an
 PASS_PIXELS = 1 << 18  # pixels shaded per pass of the inner loop
 
 
+def _eager(stage, brush: Brush, paired: tuple, fixed: tuple, **consts):  # what fused() computes compiled
+    return stage(brush, *paired, *fixed, **consts)
+
+
 @dataclass
 class Tiles:
-    """Strokes rasterized sparsely: the (stroke, tile) pairs they touch, in layers.
-
-    A pair's layer is its rank among the pairs of its tile, in stroke order; pairs are sorted by
-    layer, so a layer is one run that touches each tile at most once, and blending the layers in
-    order paints every tile's strokes in order.
-
-    Attributes:
-        stroke, tile: (P,) indices of the pairs.
-        fg: (P, 3, tile²) foreground RGB of each pair's pixels.
-        alpha: (P, tile²) their alpha.
-        layers: pairs in each layer, summing to P.
-        rows, cols: the tiling.
-    """
+    """Strokes rasterized sparsely: the (stroke, tile) pairs (P,) they touch, their pixels' foreground
+    ``fg`` (P, 3, tile²) and ``alpha`` (P, tile²), the tiling ``rows``×``cols``, and the pairs in
+    ``layers`` (their sizes, summing to P). A pair's layer is its rank among its tile's pairs, in
+    stroke order; sorted by layer, a layer touches each tile once, so blending the layers in order
+    paints every tile's strokes in order."""
 
     stroke: Tensor
     tile: Tensor
@@ -109,22 +105,15 @@ def subtiles(b: Tensor, t: Tensor, box: Tensor, height: int, width: int, coarse:
 
 def rasterize(brush: Brush, x: Tensor, height: int, width: int, *, softness: float | None = None, tile: int = 8,
               compile: bool | None = False, first: int = 0) -> Tiles:
-    """Evaluate strokes ``x`` (B, d), numbers ``first``, …, ``first`` + B − 1 of their painting,
-    on the tiles of a ``height``×``width`` canvas they touch: culled by each stroke's bounding box,
-    then by its distance bound at tile centres, before ``brush.paint`` shades their pixels.
-
-    ``compile`` (as :func:`render`'s) culls and shades them by the brush's compiled kernels
-    (:func:`nsp.engine.fused.fused`); where one kernel serves every canvas of this one's detail
-    (:meth:`~nsp.brushes.Brush.sized`), it culls eagerly and shades by it, differentiably
-    (:class:`AnySizeShade`).
-    """
+    """Evaluate strokes ``x`` (B, d), numbers ``first``, … of their painting, on the tiles of a
+    ``height``×``width`` canvas they touch, culled by box, then by distance bound at tile centres.
+    ``compile`` (as :func:`render`'s) culls and shades by the brush's compiled kernels; where one
+    kernel serves every canvas of this detail (:meth:`~nsp.brushes.Brush.sized`), it culls eagerly
+    and shades by it, differentiably (:class:`AnySizeShade`)."""
     margin = 1.0 if softness is None else 12.0 * softness  # where coverage is still non-zero
     build = compile is True  # auto compiles nothing
     compile = choose(compile, brush, x, height, width, softness, tile)
-    sized = brush.sized(width) if compile else None
-    eager = (lambda stage, brush, paired, fixed, **consts: stage(brush, *paired, *fixed, **consts))
-    kernel = functools.partial(fused, build=build)
-    run = kernel if compile and sized is None else eager
+    run = functools.partial(fused, build=build) if compile and brush.sized(width) is None else _eager
     with torch.no_grad():
         # Coarse to fine: on a canvas 32 tiles wide or more, tiles 4×, 16×, … as wide are culled first.
         sizes = [tile]
@@ -141,12 +130,21 @@ def rasterize(brush: Brush, x: Tensor, height: int, width: int, *, softness: flo
         order, layers = in_layers(t)  # b, in stroke order, stays so in each tile
         b, t = b[order], t[order]
 
+    fg, alpha = _shade(brush, x, b, t, height, width, tile, softness, compile, build, first)
+    return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
+
+
+def _shade(brush: Brush, x: Tensor, b: Tensor, t: Tensor, height: int, width: int, tile: int, softness: float | None,
+           compile: bool, build: bool, first: int = 0) -> tuple[Tensor, Tensor]:
+    """Foreground (P, 3, tile²) and alpha (P, tile²) of pairs (b, t) (P,) of strokes x (B, d), numbers ``first``, …:
+    by the compiled kernels where ``compile`` (:func:`~nsp.engine.fused.choose`) and ready, else eagerly."""
     # x.index_select, not x[b]: its gradient sums a stroke's pairs in one order (x[b]'s, with 2 threads, in any).
     dx, dy = tile_offsets(tile, x)
     varies = brush.varies(width)  # where it does not, key is t: an int64 a pair, unread
     key = stroke_keys(brush.seed, torch.arange(first, first + len(x), device=x.device))[b] if varies else t
     xs = x.index_select(0, b)
-    shade = eager
+    sized = brush.sized(width) if compile else None
+    shade = _eager
     if sized is not None:
         canvas = torch.tensor([height, width], dtype=x.dtype, device=x.device)
         if prepare(shade_any_size, sized, (xs.detach(), t, key), (dx, dy, canvas), build=build, tile=tile,
@@ -155,14 +153,32 @@ def rasterize(brush: Brush, x: Tensor, height: int, width: int, *, softness: flo
                      AnySizeShade.apply(*paired, *fixed, canvas, sized, consts["tile"], consts["softness"], build))
     elif compile and prepare(shade_tiles, brush, (xs.detach(), t, key), (dx, dy), build=build, height=height,
                              width=width, tile=tile, softness=softness):
-        shade = kernel
+        shade = functools.partial(fused, build=build)
     # An eager pass shades at most PASS_PIXELS pixels, so the allocator recycles its temporaries instead of the
     # system page-faulting them in for every op; a compiled kernel keeps none: it shades every pair at once.
-    step = max(1, len(b) if shade is not eager else PASS_PIXELS // tile**2)
+    step = max(1, len(b) if shade is not _eager else PASS_PIXELS // tile**2)
     passes = [shade(shade_tiles, brush, (xp, tp, kp), (dx, dy), height=height, width=width, tile=tile, softness=softness)
               for xp, tp, kp in zip(xs.split(step), t.split(step), key.split(step))]
-    fg, alpha = passes[0] if len(passes) == 1 else map(torch.cat, zip(*passes))  # split yields ≥ 1 part
-    return Tiles(b, t, fg, alpha, layers, math.ceil(height / tile), math.ceil(width / tile))
+    return passes[0] if len(passes) == 1 else tuple(map(torch.cat, zip(*passes)))  # split yields ≥ 1 part
+
+
+def render_whole(brush: Brush, x: Tensor, size: int, *, softness: float, tile: int = 8,
+                 compile: bool | None = False) -> tuple[Tensor, Tensor]:
+    """Strokes x (B, d) each alone on a size² canvas in the soft mode, as :func:`render` draws them: fg
+    (B, 3, size, size), alpha (B, 1, size, size), differentiable; every shape fixed by x's and nothing
+    read back from the device: every tile shaded, those a stroke cannot reach (culled by :func:`rasterize`) masked."""
+    margin = 12.0 * softness
+    rows = cols = math.ceil(size / tile)
+    b = torch.arange(len(x), device=x.device).repeat_interleave(rows * cols)  # (P,): every (stroke, tile) pair
+    t = torch.arange(rows * cols, device=x.device).repeat(len(x))
+    with torch.no_grad():
+        near = in_box(brush.extent(x.detach(), size, size)[b], torch.div(t, cols, rounding_mode="floor"), t % cols,
+                      tile, margin)
+        near &= near_tiles(brush, x.detach()[b], t, height=size, width=size, tile=tile, margin=margin)
+    fg, alpha = _shade(brush, x, b, t, size, size, tile, softness, choose(compile, brush, x, size, size, softness, tile),
+                       compile is True)
+    alpha = alpha * near[:, None]
+    return tuple(untile(v.view(len(x), rows * cols, -1, tile * tile), size, size, tile) for v in (fg, alpha))
 
 
 class AnySizeShade(torch.autograd.Function):
@@ -208,22 +224,13 @@ def dense(values: Tensor, stroke: Tensor, tile: Tensor, strokes: int, rows: int,
 
 def render(brush: Brush, x: Tensor, height: int, width: int | None = None, *, softness: float | None = None,
            tile: int = 8, compile: bool | None = False, out: Tensor | None = None) -> tuple[Tensor, Tensor]:
-    """Render strokes on their own, each on an empty canvas.
-
-    Args:
-        x: (B, d) stroke parameters in [0, 1].
-        height, width: canvas size in pixels (width defaults to height).
-        softness: ``None`` for the antialiased engine; a width in pixels for the soft,
-            differentiable mode (the painter's ``analytic`` renderer).
-        tile: tile side in pixels.
-        compile: shade the pixels through the compiled path: True, compiling its kernels first where
-            this machine has none; None (auto), where it has them (:func:`nsp.engine.fused.choose`); False, never.
-        out: optional (B, 4, H, W) tensor to render into, reused across calls: a fresh tensor of
-            tens of megabytes costs the operating system's page faults on every call.
-
-    Returns:
-        foreground (B, 3, H, W) and alpha (B, 1, H, W), both in [0, 1] (views of ``out`` if given).
-    """
+    """Strokes x (B, d) in [0, 1], each alone on an empty ``height``×``width`` (default: square)
+    canvas: foreground (B, 3, H, W) and alpha (B, 1, H, W) in [0, 1]. ``softness``: None for the
+    antialiased engine, else an edge width in pixels (the soft, differentiable mode, the painter's
+    ``analytic`` renderer). ``compile``: True, by the compiled kernels, compiling those missing; None
+    (auto), where this machine has them (:func:`nsp.engine.fused.choose`); False, never. ``out``: a
+    (B, 4, H, W) tensor rendered into and returned views of, reused across calls (a fresh one of tens
+    of megabytes costs the system's page faults every call)."""
     width = height if width is None else width
     tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile)
     rows, cols, n = tiles.rows, tiles.cols, len(x)

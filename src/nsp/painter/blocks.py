@@ -112,9 +112,8 @@ class Level:
         """The blocks of ``image`` (C, H, W), resampled to ``size``: (B, C, size, size). Pixels past
         the canvas repeat its edge (``pad="replicate"``) or are 0 (``"constant"``)."""
         s = self.side
-        top, left = (-self.origins.min(0).values).clamp(min=0).tolist()
-        bottom = max(0, int(self.origins[:, 0].max()) + s - self.height)
-        right = max(0, int(self.origins[:, 1].max()) + s - self.width)
+        (low_y, low_x), (high_y, high_x) = self.origins.min(0).values.tolist(), self.origins.max(0).values.tolist()
+        top, left, bottom, right = max(0, -low_y), max(0, -low_x), max(0, high_y + s - self.height), max(0, high_x + s - self.width)
         if top or left or bottom or right:
             image = F.pad(image[None], (left, right, top, bottom), mode=pad)[0]
         blocks = torch.stack([image[:, y + top : y + top + s, x + left : x + left + s] for y, x in self.origins.tolist()])

@@ -63,11 +63,12 @@ def bias_corrected(optimizer: Optimizer) -> Optimizer:
 
 def optimize_strokes(x: Tensor, optimizer: Optimizer, steps: int,
                      objective: Callable[[], tuple[Tensor, dict[str, Tensor]]],
-                     frozen: Sequence[int] = ()) -> Iterator[tuple[Tensor, dict[str, float]]]:
+                     frozen: Sequence[int] = ()) -> Iterator[tuple[Tensor, dict[str, Tensor]]]:
     """Take ``steps`` steps of ``optimizer`` on the strokes ``x`` (…, d), a leaf that requires grad,
     each clamped to [0, 1] after; parameters at the indices ``frozen`` (of the last axis) do not move.
     ``objective()`` renders the current strokes: (canvas, losses) with the weighted ``losses["total"]``.
-    Yields, per step, the canvas the step was computed on (detached) and the losses as numbers."""
+    Yields, per step, the canvas the step was computed on and the losses, detached tensors on the
+    strokes' device: nothing here waits for the device (reading a loss, ``float(value)``, does)."""
     for _ in range(steps):
         canvas, losses = objective()
         optimizer.zero_grad()
@@ -77,4 +78,4 @@ def optimize_strokes(x: Tensor, optimizer: Optimizer, steps: int,
         optimizer.step()
         with torch.no_grad():
             x.clamp_(0, 1)
-        yield canvas.detach(), {name: float(value.detach()) for name, value in losses.items()}
+        yield canvas.detach(), {name: value.detach() for name, value in losses.items()}

@@ -41,8 +41,9 @@ class Callback:
     def on_strokes(self, painter: "Painter", added: int) -> None:
         """``added`` strokes joined the active sets."""
 
-    def on_step(self, painter: "Painter", step: int, losses: dict[str, float]) -> None:
-        """Optimizer step ``step`` (counted over all levels) was taken with these block-mean losses."""
+    def on_step(self, painter: "Painter", step: int, losses: dict[str, Tensor]) -> None:
+        """Optimizer step ``step`` (over all levels) was taken with these block-mean losses, 0-dim tensors
+        on the device: a read waits for it, so read a level's at once (``on_level``), not one a step."""
 
     def on_level(self, painter: "Painter", level: int, canvas: Tensor) -> None:
         """Level ``level`` (0-based) is done; ``canvas`` (3, H, W) is everything painted so far."""
@@ -52,8 +53,8 @@ class Painter:
     """Paints a target with strokes of one brush.
 
     Args:
-        renderer: ``renderer.resolution(side) -> size``, ``renderer.composite(x, block, under)``
-            (strokes painted in order over their blocks) and ``renderer.gains(x, block, canvas, goal,
+        renderer: ``renderer.resolution(side) -> size``, ``renderer.composite(x, shown, under)``
+            (each block's strokes painted in order over it) and ``renderer.gains(x, block, canvas, goal,
             weights)`` (the error each stroke alone takes away): see :mod:`nsp.painter.renderer`.
         loss: ``loss(canvas, target) -> {"total": scalar, ...}`` on (B, 3, h, w) blocks.
         optimizer: builds the optimizer of a list of parameters (e.g. a ``_partial_`` RMSprop).
@@ -61,8 +62,7 @@ class Painter:
         background: canvas colour.
         generator: the only source of randomness (new strokes' sizes, angles, directions).
         callbacks: see :class:`Callback`.
-        trainable: indices of the parameters optimized; ``None``: all (style transfer's colour-only
-            mode optimizes the colours alone).
+        trainable: indices of the parameters optimized; ``None``: all (style's colour mode: the colours).
     """
 
     def __init__(self, brush: Brush, renderer, loss: Callable[[Tensor, Tensor], dict[str, Tensor]],
@@ -148,9 +148,10 @@ class Painter:
         weights = level.weights(size, target)  # padding is scored as if painted right
         if self.schedule.split == "error":
             level = self._by_error(level, under, goal, weights)
-        depth = int(level.counts.max())
+        counts = level.counts.tolist()  # the level's bookkeeping is the host's: no step waits for the device
+        depth, device = max(counts), target.device
         exists = torch.arange(depth, device="cpu")[None] < level.counts[:, None]  # (B, K), as level.counts: the CPU
-        x = torch.zeros(level.blocks, depth, self.brush.d, device=target.device, requires_grad=True)
+        x = torch.zeros(level.blocks, depth, self.brush.d, device=device, requires_grad=True)
         optimizer = self.optimizer([x])
         forms = Forms.of(goal)
         palette = Palette(self.brush, forms.colors, max(5, round(self.schedule.init_size[1] * size))) if self.schedule.palette else None  # a long stroke wide
@@ -158,39 +159,40 @@ class Painter:
         self._active = (level, x, painted, size)
         current = under.clone()
 
-        def optimize(live: Tensor, k: int, steps: int, shown: Tensor | None = None) -> None:
-            """``steps`` steps of the first k strokes of the blocks ``live`` (b,); of those, only the
-            ``shown`` (b, k) ones are painted (None: all)."""
-            background, aim, weight = under[live], goal[live], weights[live]  # the same at every step
+        def optimize(live: list[int], k: int, steps: int) -> None:
+            """``steps`` steps of the first k strokes of the blocks ``live``, those that exist painted."""
+            at = torch.tensor(live, device=device)
+            shown = None if all(counts[b] >= k for b in live) else exists[live, :k].to(device)
+            background, aim, weight = under[at], goal[at], weights[at]  # the same at every step
 
             def objective() -> tuple[Tensor, dict[str, Tensor]]:
-                out = self._blend(x[live, :k], background, aim, weight, shown)
+                out = self._blend(x[at, :k], shown, background, aim, weight)
                 return out, self.loss(out, aim)
 
             for out, scalars in optimize_strokes(x, optimizer, steps, objective, self.frozen):
-                current[live] = out
+                current[at] = out
                 if palette is not None:
                     with torch.no_grad():
-                        strokes = x[live, :k]
-                        palette.clamp_(strokes, live)
-                        x[live, :k] = strokes
+                        strokes = x[at, :k]
+                        palette.clamp_(strokes, at)
+                        x[at, :k] = strokes
                 self.step += 1
                 for callback in self.callbacks:
                     callback.on_step(self, self.step, scalars)
 
         for k in range(depth):
-            live = exists[:, k].nonzero()[:, 0]  # (b,) the blocks that still take strokes
+            live = [b for b, count in enumerate(counts) if count > k]  # the blocks that still take strokes
+            at = torch.tensor(live, device=device)
             with torch.no_grad():
-                x[live, k] = self._place(current[live], goal[live], weights[live], forms[live])
+                x[at, k] = self._place(current[at], goal[at], weights[at], forms[at])
             painted[:, k] = exists[:, k]
             for callback in self.callbacks:
                 callback.on_strokes(self, len(live))
             if not self.schedule.steps_per_stroke:
                 with torch.no_grad():
-                    current[live] = self._blend(x[live, : k + 1], under[live], goal[live], weights[live])
+                    current[at] = self._blend(x[at, : k + 1], None, under[at], goal[at], weights[at])
             optimize(live, k + 1, self.schedule.steps_per_stroke)
-        live = exists.any(1).nonzero()[:, 0]
-        optimize(live, depth, self.schedule.polish, exists[live].to(x.device))  # the whole level together
+        optimize([b for b, count in enumerate(counts) if count], depth, self.schedule.polish)  # the whole level together
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
 
     def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, forms: Forms) -> Tensor:
@@ -214,13 +216,10 @@ class Painter:
         cap = max(1, math.ceil(self.schedule.crowd * strokes / level.blocks))
         return dataclasses.replace(level, counts=share(strokes, error, cap))
 
-    def _blend(self, x: Tensor, under: Tensor, goal: Tensor, weights: Tensor, shown: Tensor | None = None) -> Tensor:
-        """Composite the strokes x (B, k, d) of each block on its background: (B, 3, s, s); padding
-        shows the target. ``shown`` (B, k) bool: the strokes painted (None: all)."""
-        if shown is None:
-            shown = torch.ones(x.shape[:2], dtype=torch.bool, device=x.device)
-        out = self.renderer.composite(x[shown], shown.nonzero()[:, 0], under)
-        return weights * out + (1 - weights) * goal
+    def _blend(self, x: Tensor, shown: Tensor | None, under: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
+        """Composite each block's strokes x (B, k, d) in order over it, ``under`` (B, 3, s, s), those
+        ``shown`` (B, k) (None: all): (B, 3, s, s); padding shows the target."""
+        return weights * self.renderer.composite(x, shown, under) + (1 - weights) * goal
 
 
 def _in_order(x: Tensor, painted: Tensor) -> Tensor:

@@ -59,24 +59,15 @@ def largest_errors(canvas: Tensor, target: Tensor, weights: Tensor, count: int =
 def place_strokes(brush: Brush, canvas: Tensor, target: Tensor, weights: Tensor, size: tuple[float, float],
                   generator: torch.Generator, peaks: int = 1, scales: Sequence[float] = (1.0,),
                   forms: Forms | None = None) -> Tensor:
-    """New strokes for each block, centred on the regions of its largest error.
-
-    Args:
-        canvas, target: (B, 3, h, w) the block as painted so far and as it should look.
-        weights: (B, 1, h, w), 0 on padding.
-        size: range of a new stroke's length, as fractions of the block's width.
-        generator: draws the directions where the target is flat.
-        peaks: how many regions of large error get a stroke (see :func:`largest_errors`).
-        scales: a stroke per scale at each peak, its length that many times the reach along the forms.
-        forms: ``Forms.of(target)``, where already computed (a level computes them once).
-
-    Returns:
-        (B, d) strokes in block coordinates, in [0, 1], with one peak and one scale; else
-        (B, peaks · len(scales), d), peak by peak. A stroke lies along the target's forms at the
-        error (a random direction where the target is flat) and spans the stretch over which the
-        target keeps the colour there (:func:`~nsp.painter.structure.reach`), its length within
-        ``size``; its colours are the target's along it (a two-colour brush's head and tail those of
-        either half); transparency 1.
+    """New strokes for each block of ``canvas`` (B, 3, h, w, as painted so far) toward ``target``
+    (as it should look; ``weights`` (B, 1, h, w), 0 on padding), centred on its ``peaks`` regions of
+    largest error (:func:`largest_errors`), a stroke per ``scales`` at each, its length that many
+    times the reach along the forms (``forms``: ``Forms.of(target)``, a level's, computed once) and
+    within ``size`` (fractions of the block's width). ``generator`` draws the directions where the
+    target is flat. (B, d) strokes in block coordinates in [0, 1] for one peak and scale, else (B,
+    peaks · len(scales), d), peak by peak: along the target's forms at the error, spanning the
+    stretch over which the target keeps its colour (:func:`~nsp.painter.structure.reach`), in the
+    target's colours along it (a two-colour brush's head and tail those of either half), opaque.
     """
     batch, _, h, w = canvas.shape
     rows, cols = largest_errors(canvas, target, weights, peaks)  # (B, P) each

@@ -1,6 +1,6 @@
 """The painter's differentiable renderers behind one interface: ``renderer(x (B, d), size) ->
 (foreground (B, 3, size, size), alpha (B, 1, size, size))``, each stroke alone; ``renderer.composite(x,
-block, under)``, strokes painted in order over their blocks; ``renderer.gains(x, block, canvas, goal,
+shown, under)``, each block's strokes painted in order over it; ``renderer.gains(x, block, canvas, goal,
 weights)``, the error each stroke alone takes from its block; ``renderer.resolution(side)``.
 
 ``analytic`` is the vector engine's soft mode: any resolution, nothing to train. ``neural`` is a
@@ -13,7 +13,7 @@ from torch import Tensor, nn
 
 from nsp.brushes import Brush
 from nsp.engine import composite, render
-from nsp.engine.raster import composite_blocks, paint_gains
+from nsp.engine.raster import composite_blocks, paint_gains, render_whole
 from nsp.errors import BadInput
 from nsp.painter.settings import RendererConfig
 from nsp.renderers.checkpoint import load_renderer
@@ -27,29 +27,38 @@ class AnalyticRenderer:
         block_size: the largest block side rendered; bigger blocks are optimized downsampled.
         compile: the soft shading, forward and back, by its compiled kernels, one for every block
             size (:class:`nsp.engine.raster.AnySizeShade`), as :func:`nsp.engine.raster.rasterize`'s.
+        static: every stroke shaded on its whole block (:func:`~nsp.engine.raster.render_whole`), nothing
+            read back from the device; else only the tiles it touches, culled on the host. None: on a GPU.
     """
 
     def __init__(self, brush: Brush, softness: float | None = None, block_size: int = 64,
-                 compile: bool | None = False):
+                 compile: bool | None = False, static: bool | None = None):
         self.brush, self.block_size = brush, block_size
         self.softness = brush.softness if softness is None else softness
-        self.compile = compile
+        self.compile, self.static = compile, static
 
     def resolution(self, side: int) -> int:
         """Pixels per side a block of ``side`` canvas pixels is optimized at."""
         return min(side, self.block_size)
 
-    def __call__(self, x: Tensor, size: int) -> tuple[Tensor, Tensor]:
-        return render(self.brush, x, size, softness=self.softness, compile=self.compile)
+    def __call__(self, x: Tensor, size: int, whole: bool = False) -> tuple[Tensor, Tensor]:
+        """Strokes x (B, d) each alone on a size² block; ``whole``: every tile shaded (:func:`render_whole`)."""
+        return (render_whole if whole else render)(self.brush, x, size, softness=self.softness, compile=self.compile)
 
-    def composite(self, x: Tensor, block: Tensor, under: Tensor) -> Tensor:
-        """Strokes x (N, d), in order, each painted over its ``block`` (N,) of ``under`` (B, 3, s, s):
-        (B, 3, s, s), only the tiles each touches shaded and blended."""
-        return composite_blocks(self.brush, x, block, under, softness=self.softness, compile=self.compile)
+    def composite(self, x: Tensor, shown: Tensor | None, under: Tensor) -> Tensor:
+        """Strokes x (B, K, d), each block's in order, painted over its block of ``under`` (B, 3, s, s)
+        where ``shown`` (B, K) bool (None: all): (B, 3, s, s), differentiable in x and under."""
+        if self.static or (self.static is None and x.device.type != "cpu"):
+            return _composite(*self(x.flatten(0, 1), under.shape[-1], whole=True), shown, under)
+        shown = torch.ones(x.shape[:2], dtype=torch.bool, device=x.device) if shown is None else shown
+        return composite_blocks(self.brush, x[shown], shown.nonzero()[:, 0], under, softness=self.softness,
+                                compile=self.compile)  # only the tiles each stroke touches shaded and blended
 
     def gains(self, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
         """How much each stroke x (N, d), painted alone over its ``block`` (N,) of ``canvas`` (B, 3, s, s),
-        lowers Σ weights·|canvas − goal| there (weights (B, 1, s, s)): (N,), from the tiles each touches."""
+        lowers Σ weights·|canvas − goal| there (weights (B, 1, s, s)): (N,)."""
+        if self.static or (self.static is None and x.device.type != "cpu"):
+            return _gains(*self(x, canvas.shape[-1], whole=True), block, canvas, goal, weights)
         return paint_gains(self.brush, x, block, canvas, goal, weights, softness=self.softness, compile=self.compile)
 
 
@@ -66,21 +75,28 @@ class NeuralRenderer:
     def __call__(self, x: Tensor, size: int) -> tuple[Tensor, Tensor]:
         return self.network(x)
 
-    def composite(self, x: Tensor, block: Tensor, under: Tensor) -> Tensor:
-        """As :meth:`AnalyticRenderer.composite`: a block's strokes stacked in order, its empty places transparent."""
-        blocks, _, size, _ = under.shape
-        fg, alpha = self(x, size)
-        index = torch.arange(len(x), device=x.device) - torch.searchsorted(block, block)  # a stroke's place in its block
-        depth = int(index.max()) + 1 if len(x) else 0
-        stacked = fg.new_zeros(blocks, depth, 3, size, size).index_put((block, index), fg)
-        return composite(stacked, alpha.new_zeros(blocks, depth, 1, size, size).index_put((block, index), alpha), under)
+    def composite(self, x: Tensor, shown: Tensor | None, under: Tensor) -> Tensor:
+        """As :meth:`AnalyticRenderer.composite`."""
+        return _composite(*self(x.flatten(0, 1), under.shape[-1]), shown, under)
 
     def gains(self, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
         """As :meth:`AnalyticRenderer.gains`, from each stroke's whole image."""
-        fg, alpha = self(x, canvas.shape[-1])
-        under, aim = canvas.index_select(0, block), goal.index_select(0, block)
-        painted = torch.lerp(under, fg, alpha)
-        return (((under - aim).abs() - (painted - aim).abs()) * weights.index_select(0, block)).sum((1, 2, 3))
+        return _gains(*self(x, canvas.shape[-1]), block, canvas, goal, weights)
+
+
+def _composite(fg: Tensor, alpha: Tensor, shown: Tensor | None, under: Tensor) -> Tensor:
+    """Fg (B·K, 3, s, s), alpha (B·K, 1, s, s), each block's K in order, over ``under`` (B, 3, s, s), where ``shown``."""
+    blocks, _, size, _ = under.shape
+    if shown is not None:
+        alpha = alpha * shown.reshape(-1, 1, 1, 1)
+    return composite(fg.view(blocks, -1, 3, size, size), alpha.view(blocks, -1, 1, size, size), under)
+
+
+def _gains(fg: Tensor, alpha: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
+    """Σ w·(|canvas − goal| − |painted − goal|) (N,) of strokes fg (N, 3, s, s), alpha (N, 1, s, s) on their ``block``."""
+    under, aim = canvas.index_select(0, block), goal.index_select(0, block)
+    painted = torch.lerp(under, fg, alpha)
+    return (((under - aim).abs() - (painted - aim).abs()) * weights.index_select(0, block)).sum((1, 2, 3))
 
 
 def build_renderer(cfg: RendererConfig, brush: Brush,
@@ -89,7 +105,7 @@ def build_renderer(cfg: RendererConfig, brush: Brush,
     as :class:`AnalyticRenderer`'s), or the network of its ``nsp.train`` checkpoint on ``device``
     (:class:`BadInput` if it was trained for another brush)."""
     if cfg.name == "analytic":
-        return AnalyticRenderer(brush, cfg.softness, cfg.block_size, cfg.compile)
+        return AnalyticRenderer(brush, cfg.softness, cfg.block_size, cfg.compile, cfg.static)
     network, trained_for, size = load_renderer(cfg.checkpoint)
     if trained_for != brush.name:
         raise BadInput(f"renderer.checkpoint={cfg.checkpoint} renders {trained_for} strokes, not brush={brush.name}; "

@@ -33,6 +33,8 @@ class RendererConfig:
     # compiled first where this machine has none; auto: those it has, eagerly where it has none, saying which
     # `python -m nsp.engine BRUSH` compiles them; false, never. Made, it holds True, False, or None for auto.
     compile: Union[bool, str, None] = "auto"
+    # analytic: true, every stroke shaded on its whole block, no read back a step; false, culled on the host; null: on a GPU
+    static: Optional[bool] = None
     checkpoint: Optional[str] = None  # neural: path of the checkpoint (required)
 
     def __post_init__(self) -> None:

@@ -32,7 +32,7 @@ def stylize(brush: Brush, strokes: Tensor, target: Tensor, style: Tensor,
             content: Callable[[Tensor, Tensor], dict[str, Tensor]], optimizer: Callable[[list[Tensor]], Optimizer], *,
             weight: float, steps: int, loss: StyleLoss | None = None, mode: str = "full", background: str = "white",
             softness: float | None = None, seed: int = 0, color: ColorSettings = ColorSettings(),
-            callbacks: Sequence[Callable[[int, dict[str, float]], None]] = (),
+            callbacks: Sequence[Callable[[int, dict[str, Tensor]], None]] = (),
             tick: Callable[[], None] | None = None) -> tuple[Tensor, str]:
     """Restyle ``strokes`` (N, d), a painting of ``target`` (3, H, W), in the style of the image
     ``style`` (3, h, w), all RGB in [0, 1], on the vector engine at the target's size. Returns the

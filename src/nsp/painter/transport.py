@@ -102,20 +102,13 @@ def dense_sinkhorn(a: Tensor, b: Tensor, eps: float = 0.01, iters: int = 5) -> T
 
 def transport_loss(canvas: Tensor, target: Tensor, grid: int, eps: float, iters: int,
                    background: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Tensor:
-    """The painter's transportation loss L_ot between a canvas and its target: a scalar, the mean over
-    the batch of the channel-averaged transport costs.
-
-    Both images are area-averaged to grid×grid. A pixel's mass, per channel, is |image − background|:
-    the intensity on a black canvas (the reference implementation's mass), the ink on a white one,
-    always what the strokes lay down. Each channel is transported separately and the costs averaged:
-    colour stays in the comparison, the deterministic expectation of the reference's one random channel.
-
-    Args:
-        canvas, target: (B, 3, H, W) images in [0, 1].
-        grid: side of the square transport grid.
-        eps, iters: Sinkhorn ε and iterations (paper: 0.01, 5).
-        background: RGB in [0, 1] of the blank canvas.
-    """
+    """The painter's transportation loss L_ot between ``canvas`` and ``target`` (B, 3, H, W) in [0, 1]:
+    a scalar, the batch's mean channel-averaged transport cost, by Sinkhorn (``eps``, ``iters``;
+    paper: 0.01, 5) on both area-averaged to ``grid``×``grid``. A pixel's mass, per channel, is
+    |image − background| (RGB in [0, 1] of the blank canvas): the intensity on a black canvas (the
+    reference implementation's mass), the ink on a white one, what the strokes lay down. Each channel
+    is transported apart and the costs averaged: colour stays in the comparison, the deterministic
+    expectation of the reference's one random channel."""
     blank = torch.tensor(background, device=canvas.device, dtype=canvas.dtype)[:, None, None]
     masses = [F.adaptive_avg_pool2d((image - blank).abs(), grid).flatten(0, 1)  # (B·3, grid, grid)
               for image in (canvas, target)]

@@ -8,6 +8,7 @@ from typing import Mapping
 from PIL import Image
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from tensorboard.compat.proto.summary_pb2 import Summary
+import torch
 from torch import Tensor
 from torch.utils.tensorboard import SummaryWriter
 from torch.utils.tensorboard.summary import hparams
@@ -25,11 +26,11 @@ class TensorBoard(Callback):
 
     def __init__(self, writer: SummaryWriter, target: Tensor):
         self.writer, self.target, self.step = writer, target, 0
-        self.losses: list[tuple[int, dict[str, float]]] = []  # the steps' not yet written
+        self.losses: list[tuple[int, dict[str, Tensor]]] = []  # the steps' not yet written
         self._picture("target", target, 0)
 
-    def on_step(self, painter: Painter, step: int, losses: dict[str, float]) -> None:
-        self.losses.append((step, losses))  # written a level at a time: a scalar a step woke the writer's thread a step
+    def on_step(self, painter: Painter, step: int, losses: dict[str, Tensor]) -> None:
+        self.losses.append((step, losses))  # read and written a level at a time: one wait for the device, not one a step
 
     def on_level(self, painter: Painter, level: int, canvas: Tensor) -> None:
         self.step = painter.step
@@ -40,10 +41,11 @@ class TensorBoard(Callback):
 
     def flush(self) -> None:
         """Write the steps' losses held back, and everything to disk (an interrupted painting too)."""
-        for step, losses in self.losses:
-            for name, value in losses.items():
-                if name != "total" or len(losses) > 2:
-                    self.writer.add_scalar(f"loss/{name}", value, step)
+        logged = [(f"loss/{name}", value, step) for step, losses in self.losses for name, value in losses.items()
+                  if name != "total" or len(losses) > 2]
+        values = torch.stack([value for _, value, _ in logged]).tolist() if logged else []
+        for (tag, _, step), value in zip(logged, values):
+            self.writer.add_scalar(tag, value, step)
         self.losses = []
         self.writer.flush()
 
@@ -68,14 +70,14 @@ class TensorBoard(Callback):
 
 
 class ProgressBar(Callback):
-    """A rich progress bar over the strokes (or other ``unit``), with the level and the latest L1;
+    """A rich progress bar over the strokes (or other ``unit``), with the level and the last L1 of the one before;
     :attr:`seconds`, once its ``with`` block is done, the time the block took."""
 
     def __init__(self, total: int, enabled: bool = True, unit: str = "strokes"):
         self.progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn(unit),
                                  TimeElapsedColumn(), TimeRemainingColumn(), disable=not enabled)
         self.task = self.progress.add_task("painting", total=total)
-        self.level = 1
+        self.l1: Tensor | float = float("nan")
 
     def __enter__(self) -> "ProgressBar":
         self.progress.start()
@@ -92,8 +94,8 @@ class ProgressBar(Callback):
     def on_strokes(self, painter: Painter, added: int) -> None:
         self.progress.advance(self.task, added)
 
-    def on_step(self, painter: Painter, step: int, losses: dict[str, float]) -> None:
-        self.progress.update(self.task, description=f"level {self.level} · l1 {losses['l1']:.3f}")
+    def on_step(self, painter: Painter, step: int, losses: dict[str, Tensor]) -> None:
+        self.l1 = losses["l1"]  # shown once its level is done: a read a step would wait for the device a step
 
     def on_level(self, painter: Painter, level: int, canvas: Tensor) -> None:
-        self.level = level + 2
+        self.progress.update(self.task, description=f"level {level + 2} · l1 {float(self.l1):.3f}")

@@ -103,7 +103,7 @@ def paint_style(cfg: PaintConfig, painter: Painter, strokes: torch.Tensor, photo
     color = cfg.style.mode == "color"
     steps = ColorSettings().map_steps + ColorSettings().stroke_steps if color else cfg.style.steps
     with ProgressBar(steps, cfg.progress, "recolouring steps" if color else "style steps") as bar:
-        def log_step(step: int, losses: dict[str, float]) -> None:
+        def log_step(step: int, losses: dict[str, torch.Tensor]) -> None:
             for name, value in losses.items():
                 writer.add_scalar(f"style/{name}", value, step)
             bar.advance(1, f"style {losses['style']:.3f}")
