@@ -61,12 +61,12 @@ def plot_tag(jobs: list[Job], tag: str) -> Figure:
         ax.set(title=f"{PANEL}={panel}" if panel is not None else tag, xlabel="step")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    axes[0][0].set_ylabel(tag)
+    axes[0][0].set_ylabel(tag + (" (dB)" if "psnr" in tag else ""))
     return fig
 
 
 def plot_bars(jobs: list[Job], metric: str) -> Figure:
-    """Final ``metric`` per setting as horizontal bars (mean ± std over seeds)."""
+    """Final ``metric`` per setting as horizontal bars from zero (mean ± std over seeds, where several)."""
     columns = panels(jobs)
     names = list(dict.fromkeys(name for panel in columns for name in settings(jobs, panel)))
     fig, axes = plt.subplots(1, len(columns), figsize=(4.5 * len(columns) + 2, 0.8 + 0.32 * len(names)),
@@ -81,7 +81,9 @@ def plot_bars(jobs: list[Job], metric: str) -> Figure:
         for y, (mean, error) in enumerate(zip(means, errors)):
             if np.isfinite(mean):
                 ax.text(mean + error, y, f" {mean:.2f}", va="center", fontsize=7)
-        ax.set(title=f"{PANEL}={panel}" if panel is not None else metric, xlabel=f"{metric} (mean ± std over seeds)")
+        spread = "mean ± std over seeds" if max(map(len, groups.values()), default=0) > 1 else "one run each"
+        ax.set(title=f"{PANEL}={panel}" if panel is not None else metric,
+               xlabel=f"{metric}{' (dB)' if 'psnr' in metric else ''}, {spread}")
         ax.grid(alpha=0.3, axis="x")
         if np.isfinite(means).any():
             low, high = min(low, np.nanmin(means)), max(high, np.nanmax(means + errors))

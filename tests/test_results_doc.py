@@ -1,0 +1,46 @@
+"""docs/results.md quotes nsp.report: every cell of a committed study's tables (its scores and
+dual's margins, with their intervals and p) stands in the page's section about it."""
+import re
+from pathlib import Path
+
+import pytest
+
+from nsp.reporting.collect import collect
+from nsp.reporting.tables import margins, pivot
+
+ROOT = Path(__file__).resolve().parent.parent
+STUDIES = {  # the dir under studies/: the heading of its section in docs/results.md
+    "renderer_ablation_32px": "## Rasterization / shading ablation (paper Table 1)",
+    "renderer_ablation_32px_watercolor": "## Rasterization / shading ablation (paper Table 1)",
+    "renderer_lr_64px": "### Learning rates at 64 px",
+    "renderer_comparison_64px": "### Renderer comparison at 64 px",
+    "renderer_ablation_64px": "### Rasterization / shading ablation at 64 px",
+}
+
+
+def section(heading: str) -> str:
+    """The text under ``heading`` up to the next heading of its level or above, bold unmarked."""
+    text = (ROOT / "docs" / "results.md").read_text()
+    start = text.index(heading + "\n")
+    level = heading.split(" ")[0]
+    end = re.compile(rf"^#{{1,{len(level)}}} ", re.M).search(text, start + len(heading))
+    return text[start: end.start() if end else len(text)].replace("**", "")
+
+
+def cells(study: str) -> list[str]:
+    """What nsp.report prints of the study: each renderer's score on each brush (mean ± std over
+    seeds, or one seed's), and dual's margins."""
+    jobs = collect(ROOT / "studies" / study)
+    header, rows = pivot(jobs)
+    brushes = [i for i, name in enumerate(header) if name in ("oilpaint", "watercolor")]
+    paired = margins(jobs)
+    return [row[i] for row in rows for i in brushes] + ([c for row in paired[1] for c in row[1:] if c] if paired else [])
+
+
+@pytest.mark.parametrize("study", sorted(STUDIES))
+def test_results_quote_the_studies_report(study):
+    quoted = cells(study)
+    assert len(quoted) >= 5
+    text = section(STUDIES[study])
+    missing = [cell for cell in quoted if cell not in text]
+    assert not missing, f"docs/results.md, {STUDIES[study]!r}, lacks nsp.report's {missing}"
