@@ -10,6 +10,7 @@ from nsp.reporting.tables import margins, pivot
 
 ROOT = Path(__file__).resolve().parent.parent
 STUDIES = {  # the dir under studies/: the heading of its section in docs/results.md
+    "renderer_lr_32px": "## Learning rates (the choice behind both tables)",
     "renderer_comparison_32px": "## Renderer comparison (paper Fig. 9)",
     "renderer_ablation_32px": "## Rasterization / shading ablation (paper Table 1)",
     "renderer_ablation_32px_watercolor": "## Rasterization / shading ablation (paper Table 1)",
