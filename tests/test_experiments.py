@@ -72,11 +72,11 @@ def paint_experiment(tmp_path):
 
 
 @pytest.mark.parametrize("size", [32, 64])
-@pytest.mark.parametrize("renderer", COMPARISON.split(",") + ["dual_raster", "dual_shading"])
+@pytest.mark.parametrize("renderer", COMPARISON.split(",") + ["dual_raster", "dual_shading", "dual_silhouette"])
 def test_one_comparison_job_trains_with_its_renderers_own_rate_at_its_size(renderer, size):
     register_configs()
     cfg = compose_with_hydra("train", "train", ["experiment=renderer_comparison", f"renderer={renderer}", f"model.size={size}"])
-    assert cfg.model.optimizer.lr == cfg.lr_by_renderer[f"{size}px"][renderer]
+    assert cfg.model.optimizer.lr == cfg.lr_by_renderer[f"{size}px"].get(renderer, cfg.lr_by_renderer[f"{size}px"]["dual"])
     assert set(cfg.lr_by_renderer[f"{size}px"]) == set(SWEEPS["renderer_lr"][0].split(","))  # every rate comes from the study
     lr_study = compose_with_hydra("train", "train", ["experiment=renderer_lr", f"renderer={renderer}", "model.optimizer.lr=3e-4"])
     assert lr_study.model.optimizer.lr == 3e-4 and lr_study.trainer.max_steps == cfg.trainer.max_steps
@@ -150,15 +150,17 @@ def test_renderer_painting_paints_through_every_checkpoint_and_the_analytic_rend
                                       f"hydra.sweep.dir={tmp_path}"], capsys, monkeypatch)
     assert code == 0, err
     jobs = [json.loads(p.read_text()) for p in sorted(tmp_path.glob("*/metrics.json"))]
-    assert len(jobs) == 3 * 2 * 2  # (2 checkpoints + analytic) × 2 photos × 2 budgets
-    assert {"0_dcgan_tape_seed0_chelsea_6", "analytic_tape_astronaut_3"} <= {p.name for p in tmp_path.iterdir()}  # what painted
+    assert len(jobs) == 4 * 2 * 2  # (2 checkpoints + analytic with their 2 seeds) × 2 photos × 2 budgets
+    assert {"0_dcgan_tape_seed0_chelsea_6", "analytic_tape_seed1_astronaut_3"} <= {p.name for p in tmp_path.iterdir()}
     trained = {seed: json.loads((trained_sweep / f"{seed}_dcgan_tape_seed{seed}" / "metrics.json").read_text()) for seed in (0, 1)}
     for job in jobs:
         assert job["brush"] == "tape" and 0 < job["ssim"] < 1 and job["strokes"] in (3, 6)
         if job["renderer"] == "dcgan":
             assert job["renderer_psnr"] == trained[job["seed"]]["test/psnr"]
         else:
-            assert job["renderer"] == "analytic" and "renderer_psnr" not in job
+            assert job["renderer"] == "analytic" and "renderer_psnr" not in job and job["seed"] in (0, 1)
+    strokes = [(tmp_path / f"analytic_tape_seed{seed}_chelsea_6" / "strokes.json").read_text() for seed in (0, 1)]
+    assert strokes[0] != strokes[1]  # each seed paints a painting of its own
     report = write_report(tmp_path)
     text = report[0].read_text()
     table = text.split("## Painting through each renderer: tape")[1]
@@ -166,6 +168,8 @@ def test_renderer_painting_paints_through_every_checkpoint_and_the_analytic_rend
     rows = [line for line in table.splitlines() if line.startswith(("| dcgan", "| analytic"))]
     mean = sum(trained[s]["test/psnr"] for s in (0, 1)) / 2
     assert rows[0].startswith(f"| dcgan | {mean:.2f} ± ") and rows[1].startswith("| analytic | — | ")
+    margin = text.split("The analytic renderer's margin in painting PSNR (dB), tape")[1]
+    assert "| analytic minus | @3 | @6 |" in margin and " p=" in margin.split("| dcgan |")[1].splitlines()[0]
     assert (tmp_path / "renderer_vs_painting.png").read_bytes()[:4] == b"\x89PNG"
 
 

@@ -74,3 +74,23 @@ def test_dual_alpha_is_transparency_times_silhouette():
 
         net.rasterization.convs[-2].bias[4:8] = -1e4  # the channels the pixel shuffle makes the coverage
         assert torch.count_nonzero(net(x)[1]) == 0
+
+
+@pytest.mark.parametrize("pathways", [["rasterization", "shading"], ["rasterization"], ["shading"]])
+def test_one_silhouette_is_both_support_and_coverage(pathways):
+    """silhouettes=1, the paper's renderer: s = colour · silhouette and α = A · silhouette, one map."""
+    brush = BRUSHES["watercolor"]
+    net = DualPathway("watercolor", 32, SMALL, pathways, silhouettes=1).eval()
+    x = brush.sample(3)
+    with torch.no_grad():
+        colour, support, coverage = net.maps(x)
+        fg, alpha = net(x)
+    assert support is coverage and support.shape == (3, 1, 32, 32)
+    assert torch.equal(fg, colour * coverage) and torch.equal(alpha, x[:, brush.alpha, None, None, None] * coverage)
+    if len(pathways) == 2:
+        assert net.rasterization.convs[-2].out_channels == 4  # one map through the ×2 pixel shuffle
+
+
+def test_silhouettes_other_than_one_or_two_are_refused():
+    with pytest.raises(ValueError, match="silhouettes=3: expected 1"):
+        DualPathway("tape", 32, SMALL, silhouettes=3)

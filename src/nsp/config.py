@@ -47,22 +47,31 @@ for name in BRUSH_NAMES:
     ConfigStore.instance().store(group="brush", name=name, node=BrushConfig(name=name))
 
 
-ANALYTIC = "analytic:"  # experiment=renderer_painting's swept renderer that is the analytic one, for the brush after it
+ANALYTIC = "analytic:"  # experiment=renderer_painting's swept renderer that is the analytic one: analytic:BRUSH[:SEED]
 
 
 def trained_renderers(sweep: str) -> str:
     """``${trained_renderers:DIR}``: every completed job's ``checkpoints/last.ckpt`` (the model its test
-    PSNR scores) in the training sweep ``DIR``, then ``analytic:BRUSH`` per brush, as quoted sweep values."""
+    PSNR scores) in the training sweep ``DIR``, then ``analytic:BRUSH:SEED`` per brush and training seed
+    (the analytic renderer paints with as many painter seeds as the networks were trained with), as quoted
+    sweep values."""
+    jobs = trained_jobs(sweep)
+    runs = dict.fromkeys((job_metrics(job)["brush"], job_metrics(job).get("seed", 0)) for job in jobs)
+    values = [str(job / "checkpoints" / "last.ckpt") for job in jobs] + [f"{ANALYTIC}{brush}:{seed}" for brush, seed in runs]
+    if bad := [value for value in values if "'" in value or "\\" in value]:
+        raise BadInput(f"task.sweep={sweep}: {bad[0]} has a quote or backslash in its path; move the sweep elsewhere")
+    return ",".join(f"'{value}'" for value in values)
+
+
+def trained_jobs(sweep: str) -> list[Path]:
+    """The run dirs of the training sweep ``sweep`` that completed with ``checkpoints/last.ckpt``;
+    :class:`BadInput` where there is none."""
     jobs = sorted(path.parent.parent for path in Path(sweep).glob("*/checkpoints/last.ckpt")
                   if job_metrics(path.parent.parent).get("status") == "completed")
     if not jobs:
         raise BadInput(f"task.sweep={sweep} holds no completed training job with checkpoints/last.ckpt; give the dir "
                        "of a finished `python -m nsp.train -m experiment=renderer_comparison` (or renderer_ablation)")
-    brushes = dict.fromkeys(job_metrics(job)["brush"] for job in jobs)
-    values = [str(job / "checkpoints" / "last.ckpt") for job in jobs] + [ANALYTIC + brush for brush in brushes]
-    if bad := [value for value in values if "'" in value or "\\" in value]:
-        raise BadInput(f"task.sweep={sweep}: {bad[0]} has a quote or backslash in its path; move the sweep elsewhere")
-    return ",".join(f"'{value}'" for value in values)
+    return jobs
 
 
 def job_metrics(job: Path) -> dict:
@@ -76,8 +85,11 @@ def job_metrics(job: Path) -> dict:
 
 def renderer_label(renderer: str) -> str:
     """``${renderer_label:RENDERER}``: a swept renderer as a dir name, its training job's dir's
-    (``3_dcgan_watercolor_seed0``) or ``analytic_BRUSH``, so it stays the same as its sweep grows."""
-    return renderer.replace(":", "_") if renderer.startswith(ANALYTIC) else Path(renderer).parents[1].name
+    (``3_dcgan_watercolor_seed0``) or ``analytic_BRUSH_seedSEED``, so it stays the same as its sweep grows."""
+    if renderer.startswith(ANALYTIC):
+        brush, _, seed = renderer[len(ANALYTIC):].partition(":")
+        return f"analytic_{brush}" + (f"_seed{seed}" if seed else "")
+    return Path(renderer).parents[1].name
 
 
 # ${px:SIZE}: a size as the key of a per-size table (32px; OmegaConf keys are text)

@@ -4,6 +4,7 @@ one, marked), mean over seeds with their range shaded; and bars of the headline 
 ± std over seeds, so a sweep too short for curves still gets a picture."""
 from __future__ import annotations
 
+import statistics
 from pathlib import Path
 
 import matplotlib
@@ -97,7 +98,8 @@ def plot_bars(jobs: list[Job], metric: str) -> Figure:
 
 def plot_painting_study(jobs: list[Job]) -> Figure:
     """Renderer test PSNR against painting PSNR, a panel per brush: a point per checkpoint and stroke
-    budget (its painting PSNR the mean over photos), the analytic renderer a dashed line per budget."""
+    budget (its painting PSNR the mean over photos), the analytic renderer a dashed line per budget (the
+    mean over its painter seeds)."""
     brushes = list(dict.fromkeys(job.metrics["brush"] for job in jobs if "brush" in job.metrics))
     fig, axes = plt.subplots(1, len(brushes), figsize=(5 * len(brushes), 4), squeeze=False)
     markers, lines = iter("osD^v<>p*h"), iter(["--", ":", "-.", (0, (5, 5))] * 3)
@@ -110,7 +112,7 @@ def plot_painting_study(jobs: list[Job]) -> Figure:
                 shape[budget] = next(markers), next(lines)
             marker, line = shape[budget]
             if renderer == "analytic":
-                ax.axhline(seeds[None]["psnr"], color="black", linestyle=line, linewidth=1, label=f"analytic, {budget} strokes")
+                ax.axhline(statistics.fmean(s["psnr"] for s in seeds.values()), color="black", linestyle=line, linewidth=1, label=f"analytic, {budget} strokes")
                 continue
             points = [(s["renderer_psnr"], s["psnr"]) for s in seeds.values() if "renderer_psnr" in s]
             color = f"C{renderers.index(renderer)}"

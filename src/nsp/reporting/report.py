@@ -8,7 +8,7 @@ from nsp.errors import BadInput
 from nsp.reporting.collect import Job, collect, common_overrides, swept_keys
 from nsp.reporting.plots import plot_all
 from nsp.reporting.tables import (SEED, chosen_rates, headline, is_painting_study, is_renderer_sweep, job_rows,
-                                  margins, painting_table, pivot, shown_jobs, to_csv, to_markdown)
+                                  margins, painting_margins, painting_table, pivot, shown_jobs, to_csv, to_markdown)
 from nsp.text import counted
 
 
@@ -60,8 +60,13 @@ def markdown(sweep: Path, jobs: list[Job], plots: list[Path]) -> str:
         for brush in dict.fromkeys(job.metrics["brush"] for job in jobs if "brush" in job.metrics):
             lines += [f"## Painting through each renderer: {brush}", "",
                       "Each painting scored as the vector engine draws its strokes (PSNR, SSIM at a 256-px long side); "
-                      "each cell the mean over photos, as mean ± std over the renderers' training seeds.", "",
+                      "each cell the mean over photos, as mean ± std over seeds (a network's training seed, which"
+                      " paints with the painter's seed alike; the analytic renderer's painter seed).", "",
                       to_markdown(*painting_table(jobs, brush))]
+            if table := painting_margins(jobs, brush):
+                lines += ["", f"The analytic renderer's margin in painting PSNR (dB), {brush}: the paired difference over"
+                          " seeds, its 95 % confidence interval and the two-sided p of a paired t-test.", "",
+                          to_markdown(*table)]
     if plots:
         lines += ["## Plots", ""] + [f"![{path.stem}]({path.name})" for path in plots] + [""]
     return "\n".join(lines)

@@ -22,7 +22,8 @@ LR = "model.optimizer.lr"
 PANEL = "brush"  # a pivot's columns, a plot's panels
 SEED = "seed"  # repeats of one setting: pooled into mean ± std
 DUAL = "dual"
-RENDERERS = ("dcgan", "pxlshuffle", "unet", "dual_raster", "dual_shading", "dual", "analytic")  # the paper's order, the untrained last
+ANALYTIC = "analytic"
+RENDERERS = ("dcgan", "pxlshuffle", "unet", "dual_raster", "dual_shading", "dual_silhouette", "dual", ANALYTIC)  # the paper's order, the untrained last
 STUDY_RENDERER = "task.renderer"  # experiment=renderer_painting's swept renderer: a checkpoint, or analytic:BRUSH
 # How report.md writes a metric, by a word of its name (``val/psnr_fg``: psnr); other fractions .3f.
 FORMATS = {"psnr": ".2f", "ssim": ".4f", "iou": ".3f", "seconds": ".1f", "lr": "g"}
@@ -239,7 +240,8 @@ def is_painting_study(jobs: list[Job]) -> bool:
 
 
 def painting_scores(jobs: list[Job], brush: str) -> dict[tuple[str, int], dict[object, dict[str, float]]]:
-    """(renderer, budget) -> training seed (None: analytic) -> the mean over photos of ``psnr``, ``ssim``,
+    """(renderer, budget) -> seed (a network's training seed, the analytic renderer's painter seed) -> the
+    mean over photos of ``psnr``, ``ssim``,
     ``painting_seconds`` and the checkpoint's ``renderer_psnr``, over the completed paintings of ``brush``."""
     cells: dict = {}
     for job in jobs:
@@ -253,7 +255,7 @@ def painting_scores(jobs: list[Job], brush: str) -> dict[tuple[str, int], dict[o
 
 def painting_table(jobs: list[Job], brush: str) -> tuple[list[str], list[list]]:
     """A row per renderer (the analytic one last): its test PSNR, then per stroke budget the painting's
-    PSNR, SSIM and seconds, each the mean over photos, as mean ± std over training seeds."""
+    PSNR, SSIM and seconds, each the mean over photos, as mean ± std over seeds."""
     scores = painting_scores(jobs, brush)
     budgets = sorted({b for _, b in scores})
     header = ["renderer", "test PSNR", *(f"{name} @{b}" for b in budgets for name in ("PSNR", "SSIM", "seconds"))]
@@ -271,6 +273,25 @@ def painting_table(jobs: list[Job], brush: str) -> tuple[list[str], list[list]]:
                     for k, spec in (("psnr", ".2f"), ("ssim", ".3f"), ("painting_seconds", ".1f"))]
         rows.append(row)
     return header, rows
+
+
+def painting_margins(jobs: list[Job], brush: str) -> tuple[list[str], list[list]] | None:
+    """The analytic renderer's margin in painting PSNR over each trained one, a column per stroke budget:
+    the paired difference over seeds (seed s of each; each the mean over photos) as :func:`significance`
+    writes it. None without the analytic renderer and a trained one."""
+    scores = painting_scores(jobs, brush)
+    budgets, renderers = sorted({b for _, b in scores}), sorted({r for r, _ in scores}, key=renderer_order)
+    if ANALYTIC not in renderers or len(renderers) < 2:
+        return None
+    rows = []
+    for renderer in (r for r in renderers if r != ANALYTIC):
+        row: list = [renderer]
+        for budget in budgets:
+            ours, theirs = scores.get((ANALYTIC, budget), {}), scores.get((renderer, budget), {})
+            paired = Stat([ours[s]["psnr"] - theirs[s]["psnr"] for s in ours if s in theirs])
+            row.append(significance(paired) if paired.values else None)
+        rows.append(row)
+    return ["analytic minus", *(f"@{b}" for b in budgets)], rows
 
 
 def to_csv(header: list[str], rows: list[list]) -> str:

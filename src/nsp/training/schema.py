@@ -25,6 +25,7 @@ class RendererConfig:
 class DualConfig(RendererConfig):
     _target_: str = "nsp.renderers.DualPathway"
     pathways: list[str] = field(default_factory=lambda: ["rasterization", "shading"])
+    silhouettes: int = 2  # 2: nsp's support and coverage; 1: the paper's one silhouette (renderer=dual_silhouette)
 
 
 @dataclass
