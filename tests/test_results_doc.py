@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from nsp.reporting.collect import collect
-from nsp.reporting.tables import margins, pivot
+from nsp.reporting.tables import is_painting_study, margins, painting_margins, painting_table, pivot
 
 ROOT = Path(__file__).resolve().parent.parent
 STUDIES = {  # the dir under studies/: the heading of its section in docs/results.md
@@ -17,6 +17,7 @@ STUDIES = {  # the dir under studies/: the heading of its section in docs/result
     "renderer_lr_64px": "### Learning rates at 64 px",
     "renderer_comparison_64px": "### Renderer comparison at 64 px",
     "renderer_ablation_64px": "### Rasterization / shading ablation at 64 px",
+    "renderer_painting_32px": "## Does a better renderer paint better? (32 px)",
 }
 
 
@@ -33,6 +34,9 @@ def cells(study: str) -> list[str]:
     """What nsp.report prints of the study: each renderer's score on each brush (mean ± std over
     seeds, or one seed's), and dual's margins."""
     jobs = collect(ROOT / "studies" / study)
+    if is_painting_study(jobs):  # each brush's table and the analytic renderer's margins
+        tables = [table for brush in ("oilpaint", "watercolor") for table in (painting_table(jobs, brush), painting_margins(jobs, brush))]
+        return [cell for _, rows in tables for row in rows for cell in row[1:] if cell]
     header, rows = pivot(jobs)
     brushes = [i for i, name in enumerate(header) if name in ("oilpaint", "watercolor")]
     paired = margins(jobs)
