@@ -19,7 +19,7 @@ $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q $(TORCH)
-	$(BIN)/pip install -q -e '.[dev]'
+	$(BIN)/pip install -q -e '.[dev,app]'
 	$(BIN)/python -m nsp.engine oilpaint  # the demo's compiled kernels, once a machine (other brushes: python -m nsp.engine BRUSH)
 	touch $(STAMP)
 

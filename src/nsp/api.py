@@ -19,7 +19,7 @@ import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 import torch
@@ -103,7 +103,8 @@ class Painting:
         return buffer.getvalue()
 
 
-def paint(image: Any, *, out: str | Path | None = None, overwrite: bool = False, **options: Any) -> Painting:
+def paint(image: Any, *, out: str | Path | None = None, overwrite: bool = False, callbacks: Sequence = (),
+          **options: Any) -> Painting:
     """Paint ``image`` as ``python -m nsp.paint`` does, with ``options`` as its keys; the files go into
     ``out`` (default: a new temporary folder). Ctrl-C returns what was painted so far (raised
     where nothing was yet).
@@ -112,7 +113,8 @@ def paint(image: Any, *, out: str | Path | None = None, overwrite: bool = False,
     (:func:`nsp.images.from_array` reads its layout and values). A folder ``out`` holding another
     painting's files is refused unless ``overwrite``; then the files this painting lacks go when it
     is done. A bad value raises :class:`BadInput` (leaving no folder made for it), a write the disk
-    refuses :class:`RunFailed` naming the files kept.
+    refuses :class:`RunFailed` naming the files kept. ``callbacks`` (:class:`nsp.painter.painter.Callback`)
+    hear each stroke, step and level; one that raises KeyboardInterrupt stops the painting as Ctrl-C does.
     """
     from nsp.painting.run import paint as run
     from nsp.painting.schema import paint_settings
@@ -129,7 +131,7 @@ def paint(image: Any, *, out: str | Path | None = None, overwrite: bool = False,
 
     try:
         use_threads(cfg.threads)
-        metrics = run(paint_settings(cfg), photo, brush_named="brush" in options)
+        metrics = run(paint_settings(cfg), photo, brush_named="brush" in options, callbacks=callbacks)
     except KeyboardInterrupt:
         if not written("strokes.json"):  # stopped before anything was painted: the folder as it was
             raise

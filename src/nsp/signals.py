@@ -4,6 +4,7 @@ while it saves what it had (:func:`shielded`)."""
 from __future__ import annotations
 
 import signal
+import threading
 from contextlib import contextmanager
 from typing import Any, Iterator
 
@@ -16,7 +17,10 @@ def interrupt(signum: int, frame: Any) -> None:
 @contextmanager
 def shielded() -> Iterator[None]:
     """Ignore Ctrl-C and SIGTERM while the block saves what an interrupted run had: a second Ctrl-C
-    cannot cut the files short."""
+    cannot cut the files short. Off the main thread (a painting an app runs), signals are not its own: nothing to do."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
     handlers = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield

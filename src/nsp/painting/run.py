@@ -10,6 +10,7 @@ import logging
 import math
 import time
 from pathlib import Path
+from typing import Sequence
 
 import torch
 from hydra.utils import instantiate
@@ -25,7 +26,7 @@ from nsp.images import load_image, long_side, resize
 from nsp.io.export import frame_ends, write_png
 from nsp.painter.faces import find_faces
 from nsp.painter.losses import PaintLoss
-from nsp.painter.painter import Painter
+from nsp.painter.painter import Callback, Painter
 from nsp.painter.renderer import build_renderer
 from nsp.painter.stylize import stylize
 from nsp.painting.callbacks import ProgressBar, TensorBoard
@@ -115,9 +116,12 @@ def paint_style(cfg: PaintConfig, painter: Painter, strokes: torch.Tensor, photo
     return strokes, background, bar.seconds
 
 
-def paint(cfg: PaintConfig, photo: torch.Tensor | None = None, brush_named: bool = True) -> dict:
+def paint(cfg: PaintConfig, photo: torch.Tensor | None = None, brush_named: bool = True,
+          callbacks: Sequence[Callback] = ()) -> dict:
     """Paint ``cfg.image`` (or ``photo``, as :func:`prepare` takes it); write the painting's files into
     ``cfg.output_dir``; return the metrics (``seconds``: the whole run, the checks and files included).
+    ``callbacks`` hear the painter too (:class:`~nsp.painter.painter.Callback`; one raising
+    KeyboardInterrupt stops it as Ctrl-C does).
     Unless ``brush_named``, a trained renderer paints with its checkpoint's brush (:func:`follows_checkpoint`).
     Interrupted (Ctrl-C, SIGTERM) or failing part-way, it still writes ``strokes.json`` and
     ``final.png`` of what was painted (no stroke yet: the bare canvas), then re-raises."""
@@ -133,7 +137,7 @@ def paint(cfg: PaintConfig, photo: torch.Tensor | None = None, brush_named: bool
     with SummaryWriter(out) as writer:  # events in the run dir: TensorBoard names the run after it
         board = TensorBoard(writer, target)
         with ProgressBar(cfg.strokes, cfg.progress) as bar:  # the painting's time: its face search too
-            painter.callbacks += [board, bar]
+            painter.callbacks += [board, bar, *callbacks]
             try:
                 faces = find_faces(target) if round(cfg.schedule.face_share * cfg.strokes) > 0 else []
                 strokes = painter.paint(target, cfg.strokes, detail=resize(photo, cfg.render_size), faces=faces)
