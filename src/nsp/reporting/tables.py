@@ -50,8 +50,10 @@ class Stat:
 
 
 def choices(jobs: list[Job], key: str) -> list:
-    """The values of ``key`` the jobs ran with, in first-seen order."""
-    return list(dict.fromkeys(job.choice(key) for job in jobs))
+    """The values of ``key`` the jobs ran with, in first-seen order; renderers in :data:`RENDERERS`' order
+    (a study's folder may hold jobs of two sweeps, each numbered from 0)."""
+    values = list(dict.fromkeys(job.choice(key) for job in jobs))
+    return sorted(values, key=lambda name: renderer_order(str(name))) if key == "renderer" else values
 
 
 def metric_keys(jobs: list[Job]) -> list[str]:
@@ -143,6 +145,8 @@ def pivot(jobs: list[Job]) -> tuple[list[str], list[list]]:
     ``not run``, a sweep to resume), the paper's figure beside a brush it has any for, and each row's lr."""
     metric, keys, brushes = headline(jobs), group_keys(jobs), choices(jobs, PANEL)
     settings = list(dict.fromkeys(tuple(job.choice(k) for k in keys) for job in jobs))
+    if "renderer" in keys:  # as choices() orders them
+        settings.sort(key=lambda setting: renderer_order(str(setting[keys.index("renderer")])))
     with_paper = [b for b in brushes if any((job.choice("renderer"), b) in PAPER_PSNR for job in jobs)]
     show_lr = LR not in keys and any("lr" in job.metrics for job in jobs)
     header = [*keys, *(["lr"] if show_lr else [])]
