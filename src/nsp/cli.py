@@ -415,12 +415,16 @@ def _take(path: Path) -> bool:
 
 def quote_text(argv: list[str], keys: Iterable[str], sweep: bool = False) -> list[str]:
     """``argv`` with the free-text values of ``keys`` (paths, colours) quoted for Hydra where its
-    override grammar cannot read them bare: ``background=#a0522d``, ``image=~/photo (1).jpg``. In a
-    sweep (``-m``) the commas still separate its values."""
+    override grammar cannot read them bare: ``background=#a0522d``, ``image=~/photo (1).jpg``, each item
+    of a list (``paints=[#a0522d,#203080]``). In a sweep (``-m``) the commas still separate its values."""
     quoted = []
     for arg in argv:
         key, sep, value = arg.partition("=")
         if sep and value and key.lstrip("+") in keys and ("\\" in value or _unreadable(arg)):  # bare, \\ is one \
+            if value.startswith("[") and value.endswith("]"):
+                arg = key + "=[" + ",".join(_quoted(item.strip()) for item in value[1:-1].split(",")) + "]"
+                quoted.append(arg)
+                continue
             pieces = value.split(",") if sweep else [value]
             arg = key + "=" + ",".join(map(_quoted, pieces))
         quoted.append(arg)

@@ -9,6 +9,7 @@ the commands' ``--help`` reads it.
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -24,6 +25,22 @@ CONF = Path(__file__).parent / "conf"  # each command's YAML: conf/paint, conf/t
 BRUSH_NAMES = ("oilpaint", "watercolor", "markerpen", "tape")  # nsp.brushes.BRUSHES' keys (a test holds them equal)
 BACKBONES = ("auto", "vgg19", "random")  # style.backbone: the feature networks of nsp.style.features (auto: vgg19 where its weights are)
 MODES = ("full", "color")  # style.mode: what style transfer changes (nsp.painter.stylize)
+PAINT_ORDERS = ("light_to_dark", "dark_to_light", "listed")  # paint_order: the layers' order (nsp.painter.paints.in_order)
+MAX_PAINTS = 32
+
+
+def check_paints(paints) -> None:
+    """``paints``: K (2–:data:`MAX_PAINTS`) or a list of 1–32 colours (``#rrggbb``, black, white);
+    :class:`BadInput` naming the value otherwise. No torch: the schema checks it."""
+    if isinstance(paints, (list, tuple)):
+        if not 1 <= len(paints) <= MAX_PAINTS:
+            raise BadInput(f"paints={list(paints)}: expected 1 to {MAX_PAINTS} colours #rrggbb")
+        for paint in paints:
+            if not (str(paint).lower() in ("black", "white") or re.fullmatch(r"#[0-9a-fA-F]{6}", str(paint).strip())):
+                raise BadInput(f"paints: {paint} is not a colour; expected #rrggbb (or black, white)")
+    elif isinstance(paints, bool) or not isinstance(paints, int) or not 2 <= paints <= MAX_PAINTS:
+        raise BadInput(f"paints={paints}: expected a number of paints from 2 to {MAX_PAINTS}, or a list of colours "
+                       "[#rrggbb, …]")
 
 
 @dataclass

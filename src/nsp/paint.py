@@ -21,7 +21,7 @@ from nsp.text import counted
 
 log = logging.getLogger("nsp.paint")  # Hydra sends it to the console and paint.log
 
-TEXT = ("image", "background", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
+TEXT = ("image", "background", "paints", "style.image", "brush.texture", "renderer.checkpoint", "hydra.run.dir", "hydra.sweep.dir")
 
 
 def main(cfg: DictConfig) -> float | None:

@@ -51,6 +51,10 @@ class MarkerPen(bezier.Bezier):
             f'stroke-linecap="square" opacity="{p[self.alpha]:.4f}"/>'
         )
 
+    def centreline(self, p: np.ndarray, height: int, width: int) -> tuple[str, float, str]:
+        (x0, y0), (x1, y1), (x2, y2) = bezier.svg_points(p, height, width)
+        return f"M{x0:.2f} {y0:.2f} Q{x1:.2f} {y1:.2f} {x2:.2f} {y2:.2f}", p[self.column("d")] * width / 2, "square"
+
 
 MARKERPEN = MarkerPen(
     name="markerpen", params=bezier.CONTROL + ("d", "R", "G", "B", "A"), shape=tuple(range(7)), color=(7, 8, 9),

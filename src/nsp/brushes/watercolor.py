@@ -60,6 +60,12 @@ class Watercolor(bezier.Bezier):
                         f'r="{radius[k, -1, 0]:.3f}"/></g>')
         return "".join(defs), f'<g opacity="{p[self.alpha]:.4f}">{"".join(body)}</g>'
 
+    def centreline(self, p: np.ndarray, height: int, width: int) -> tuple[str, float, str]:
+        """Its curve at its mean width (a pen has one: the discs' radii, r0 to r2, are averaged)."""
+        (x0, y0), (x1, y1), (x2, y2) = bezier.svg_points(p, height, width)
+        diameter = (p[self.column("r0")] + p[self.column("r2")]) * width / 4
+        return f"M{x0:.2f} {y0:.2f} Q{x1:.2f} {y1:.2f} {x2:.2f} {y2:.2f}", diameter, "round"
+
     def _radii(self, x: Tensor, width: int | Tensor) -> tuple[Tensor, Tensor]:
         """r0, r2 of strokes x (P, d) in pixels on a canvas ``width`` px wide: (P, 1) each."""
         return x[:, self.columns("r0")] * width / 4, x[:, self.columns("r2")] * width / 4

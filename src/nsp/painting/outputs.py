@@ -13,6 +13,7 @@ from nsp.engine import paint_canvas
 from nsp.engine.canvas import TiledCanvas
 from nsp.images import long_side, psnr, resize, ssim
 from nsp.io.export import Animation, painted_elements, write_png, write_svg
+from nsp.io.plot import write_plot
 from nsp.io.strokes import StrokeFile, save_strokes
 from nsp.painting.schema import SCORE_SIZE
 
@@ -28,7 +29,8 @@ def write_strokes_and_png(out: Path, strokes: Tensor, brush: Brush, aspect: tupl
 
 
 def write_files(out: Path, strokes: Tensor, brush: Brush, photo: Tensor, background: str, render_size: int,
-                animation_size: int, frames: int | None, workers: int, compile: bool | None = None) -> dict[str, float]:
+                animation_size: int, frames: int | None, workers: int, compile: bool | None = None,
+                paints: list[str] | None = None) -> dict[str, float]:
     """Write every file of a painting of ``strokes`` (N, d) into the run dir ``out``; returns final.png's
     :func:`similarity` to ``photo``. ``strokes.json`` comes first (a process killed while it draws the
     rest keeps the painting), then final.png and painting.svg, while a thread draws animation.gif.
@@ -40,6 +42,7 @@ def write_files(out: Path, strokes: Tensor, brush: Brush, photo: Tensor, backgro
         workers: threads the SVG's painted images (a brush whose paint has no vector form) are encoded on.
         compile: shade on the engine's compiled kernels: True, compiled first where missing; None, where
             this machine has them (:func:`nsp.engine.fused.choose`); False, never.
+        paints: the painting's paints (``#rrggbb``, layer by layer), each stroke one of them: plot.svg too.
     """
     aspect = photo.shape[-2:]
     photo = resize(photo.cpu(), long_side(*aspect, SCORE_SIZE))  # as similarity() compares it
@@ -66,6 +69,8 @@ def write_files(out: Path, strokes: Tensor, brush: Brush, photo: Tensor, backgro
         final = canvas.image()
         write_png(out / "final.png", final)
         write_svg(out / "painting.svg", brush, strokes, height, width, background, elements)
+        if paints is not None:
+            write_plot(out / "plot.svg", brush, strokes, paints, height, width)
         scores = similarity(final, photo)
         gif.result()
         return scores

@@ -27,6 +27,7 @@ from nsp.io.export import frame_ends, write_png
 from nsp.painter.faces import find_faces
 from nsp.painter.losses import PaintLoss
 from nsp.painter.painter import Callback, Painter
+from nsp.painter.paints import LAYER_SIZE, Paints, choose_paints, in_order, lay, parse_paints
 from nsp.painter.renderer import build_renderer
 from nsp.painter.stylize import stylize
 from nsp.painting.callbacks import ProgressBar, TensorBoard
@@ -116,6 +117,19 @@ def paint_style(cfg: PaintConfig, painter: Painter, strokes: torch.Tensor, photo
     return strokes, background, bar.seconds
 
 
+def paint_layers(cfg: PaintConfig, brush, strokes: torch.Tensor, photo: torch.Tensor) -> tuple[torch.Tensor, Paints, float]:
+    """The painting ``strokes`` laid in ``cfg.paints`` (:func:`nsp.painter.paints.lay`): the strokes in layer
+    order, the paints as laid, and the seconds taken."""
+    chosen = not isinstance(cfg.paints, (list, tuple))
+    colors = choose_paints(resize(photo, LAYER_SIZE), cfg.paints, cfg.seed) if chosen else parse_paints(cfg.paints)
+    paints = Paints(brush, in_order(colors, cfg.paint_order))
+    with ProgressBar(cfg.paint_steps, cfg.progress, "layer steps") as bar:
+        strokes, paints = lay(paints, strokes, resize(photo, cfg.work_size), cfg.background, cfg.paint_steps, tune=chosen,
+                              tick=lambda: bar.advance(1, "laying the paints"))
+    log.info(f"paints, in the order they are laid ({cfg.paint_order}): {' '.join(paints.hex())}")
+    return strokes, paints, bar.seconds
+
+
 def paint(cfg: PaintConfig, photo: torch.Tensor | None = None, brush_named: bool = True,
           callbacks: Sequence[Callback] = ()) -> dict:
     """Paint ``cfg.image`` (or ``photo``, as :func:`prepare` takes it); write the painting's files into
@@ -154,19 +168,22 @@ def paint(cfg: PaintConfig, photo: torch.Tensor | None = None, brush_named: bool
                 write_png(out / "style.png", image)
                 strokes, background, seconds = paint_style(cfg, painter, strokes, photo, image, style, writer)
                 phases.append(f"styled in {seconds:.1f} s")
+            if cfg.paints is not None:
+                strokes, paints, seconds = paint_layers(cfg, brush, strokes, photo)
+                phases.append(f"laid in {counted(len(paints), 'paint')} in {seconds:.1f} s")
             frames = len(frame_ends(len(strokes), cfg.animation_frames))
             log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
             files = time.perf_counter()
             scores = write_files(out, strokes, brush, photo, background, cfg.render_size, cfg.animation_size,
                                  cfg.animation_frames, workers=min(3, torch.get_num_threads()),
-                                 compile=cfg.renderer.compile)
+                                 compile=cfg.renderer.compile, paints=None if cfg.paints is None else paints.hex())
         except BaseException:
             with shielded():
                 write_strokes_and_png(out, strokes, brush, photo.shape[-2:], background, cfg.render_size)  # styled, if it was
             raise
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)
-    metrics = scores | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
+    metrics = scores | ({} if cfg.paints is None else {"paints": paints.hex()}) | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
                         "strokes": len(strokes), "faces": len(faces), "threads": torch.get_num_threads()}
     write_json(out / "metrics.json", metrics)
     log.info(f"{', '.join(phases)}: PSNR {scores['psnr']:.2f} dB, SSIM {scores['ssim']:.3f}; {out}")

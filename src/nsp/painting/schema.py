@@ -10,7 +10,7 @@ from typing import Any, Optional
 from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, OmegaConf
 
-from nsp.config import BACKBONES, MODES, BrushConfig  # also registers the ``brush`` group
+from nsp.config import BACKBONES, MODES, PAINT_ORDERS, BrushConfig, check_paints  # also registers the ``brush`` group
 from nsp.errors import BadInput
 from nsp.painter.settings import LossConfig, RendererConfig, ScheduleConfig, positive
 
@@ -20,6 +20,7 @@ SCORE_SIZE = 256  # long side at which the painting is compared with its photo (
 # Typed choices: Hydra rejects any other value when it composes, listing these.
 StyleMode = StrEnum("StyleMode", {mode: mode for mode in MODES})
 Backbone = StrEnum("Backbone", {name: name for name in BACKBONES})
+PaintOrder = StrEnum("PaintOrder", {order: order for order in PAINT_ORDERS})
 
 
 @dataclass
@@ -68,6 +69,11 @@ class PaintConfig:
     loss: LossConfig = field(default_factory=LossConfig)
     schedule: ScheduleConfig = field(default_factory=ScheduleConfig)
     style: StyleConfig = field(default_factory=StyleConfig)
+    # every stroke one of K paints (2–32) chosen for the photo, or of yours ([#rrggbb, …]), laid down paint
+    # by paint in paint_order (final.png shows that order), plot.svg a layer a paint; null: any colour
+    paints: Any = None
+    paint_order: PaintOrder = PaintOrder.light_to_dark  # light_to_dark, dark_to_light, or listed: as paints=[…] lists them
+    paint_steps: int = 400  # steps polishing the layered strokes (and chosen paints) on the whole canvas
     optimizer: Any = MISSING  # a ``_partial_`` torch optimizer, from the ``optimizer`` group
     task: Any = None  # a painting experiment's ``_partial_`` procedure cfg -> metrics (conf/paint/experiment)
     output_dir: str = "${hydra:runtime.output_dir}"
@@ -79,6 +85,13 @@ class PaintConfig:
             raise BadInput(f"work_size={self.work_size}: expected at least {MIN_WORK_SIZE} pixels")
         if self.optimizer.get("lr", 1) <= 0:
             raise BadInput(f"optimizer.lr={self.optimizer['lr']}: expected a positive learning rate")
+        if self.paints is not None:
+            check_paints(self.paints)
+            if self.style.image is not None:
+                raise BadInput(f"paints={self.paints} with style.image={self.style.image}: a style recolours every stroke, "
+                               "which a set of paints cannot follow; drop one of them")
+        if self.paint_steps < 0:
+            raise BadInput(f"paint_steps={self.paint_steps}: expected 0 or more steps")
         if self.renderer.name == "neural" and self.renderer.checkpoint is None:
             raise BadInput("renderer=neural needs renderer.checkpoint=PATH, from "
                            f"`python -m nsp.train brush={self.brush.name}`")

@@ -1,0 +1,39 @@
+"""``plot.svg``: a painting of K paints as a pen plotter or painting robot takes it, and as Inkscape,
+vpype, WaterColorBot and RoboPaint read it: an Inkscape layer a paint (``inkscape:groupmode="layer"``,
+labelled with its number and colour), in the order the paints are laid, each stroke a path along its
+middle (:meth:`nsp.brushes.base.Brush.centreline`) in its paint, its width and its brush's caps."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from torch import Tensor
+
+from nsp.brushes import Brush
+from nsp.colors import parse_color
+from nsp.files import atomic_path
+
+INKSCAPE = "http://www.inkscape.org/namespaces/inkscape"
+
+
+def write_plot(path: str | Path, brush: Brush, strokes: Tensor, paints: list[str], height: int, width: int) -> None:
+    """Strokes (N, d), each one of ``paints`` (``#rrggbb``, layer by layer) and in layer order, as
+    ``plot.svg`` on a ``height``×``width`` canvas (no background: the paper is the machine's). A stroke
+    whose colour is none of them (a file edited by hand) goes in the layer of the nearest."""
+    p = strokes.detach().cpu().double().numpy()
+    palette = np.array([parse_color(paint) for paint in paints])
+    color = p[:, list(brush.color)].reshape(len(p), -1, 3).mean(1)
+    layer = ((color[:, None] - palette[None]) ** 2).sum(-1).argmin(1)
+    opacity = np.ones(len(p)) if brush.alpha is None else p[:, brush.alpha]
+    svg = [f'<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="{INKSCAPE}" width="{width}" height="{height}" '
+           f'viewBox="-0.5 -0.5 {width} {height}">']
+    for index, paint in enumerate(paints):
+        svg.append(f'<g inkscape:groupmode="layer" inkscape:label="{index + 1} {paint}" id="layer{index + 1}">')
+        for stroke in np.flatnonzero(layer == index):
+            line, pen, cap = brush.centreline(p[stroke], height, width)
+            svg.append(f'<path d="{line}" fill="none" stroke="{paint}" stroke-width="{pen:.2f}" stroke-linecap="{cap}" '
+                       f'stroke-opacity="{opacity[stroke]:.3f}"/>')
+        svg.append("</g>")
+    svg.append("</svg>")
+    with atomic_path(path) as temporary:
+        temporary.write_text("\n".join(svg))

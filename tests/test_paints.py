@@ -1,0 +1,72 @@
+"""Painting with K paints: every stroke one of them, laid paint by paint (final.png in that order), and
+plot.svg a layer a paint that a browser draws as final.png; bad paints refused in one line."""
+import io
+import json
+
+import numpy as np
+import pytest
+import resvg_py as resvg
+import torch
+from PIL import Image
+
+from nsp.brushes import get_brush
+from nsp.colors import parse_color, rgb_to_lab
+from nsp.images import load_image, psnr, resize
+from nsp.io.strokes import load_strokes
+from nsp.painter.paints import Paints, in_order, lay
+from test_catalogue import run_cli
+
+SMALL = ["work_size=64", "render_size=128", "animation_size=32", "progress=false"]
+
+
+@pytest.mark.parametrize("override, says", [
+    ("paints=40", "paints=40: expected a number of paints from 2 to 32"),
+    ("paints=1", "paints=1: expected a number of paints from 2 to 32"),
+    ("paints=[#c04020,#12345g]", "paints: #12345g is not a colour; expected #rrggbb"),
+    ("paints=six", "paints=six: expected a number of paints"),
+])
+def test_bad_paints_are_one_line_naming_them(override, says, tmp_path, capsys, monkeypatch):
+    code, err = run_cli("nsp.paint", [override, *SMALL, f"hydra.run.dir={tmp_path / 'run'}"], capsys, monkeypatch)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and says in lines[0], err
+
+
+def test_paints_with_a_style_image_are_refused(tmp_path, capsys, monkeypatch):
+    code, err = run_cli("nsp.paint", ["paints=4", "style.image=chelsea", *SMALL, f"hydra.run.dir={tmp_path / 'run'}"],
+                        capsys, monkeypatch)
+    assert code == 2 and "paints=4 with style.image=chelsea" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_painting_in_three_paints_is_laid_layer_by_layer_and_plot_svg_draws_it(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "run"
+    code, err = run_cli("nsp.paint", ["image=astronaut", "brush=markerpen", "strokes=40", "paints=3", "paint_steps=30",
+                                      *SMALL, f"hydra.run.dir={out}"], capsys, monkeypatch)
+    assert code == 0, err
+    paints = json.loads((out / "metrics.json").read_text())["paints"]
+    assert len(paints) == 3
+    lightness = rgb_to_lab(torch.tensor([parse_color(p) for p in paints]))[:, 0]
+    assert (lightness[:-1] >= lightness[1:]).all()  # light to dark, the default order
+    strokes = load_strokes(out / "strokes.json").strokes
+    brush = get_brush("markerpen")
+    colors = (strokes[:, list(brush.color)] * 255).round().int().tolist()
+    palette = [[round(c * 255) for c in parse_color(p)] for p in paints]
+    layer = [palette.index(c) for c in colors]  # every stroke exactly one of the paints
+    assert layer == sorted(layer)  # final.png and strokes.json in layer order
+    svg = (out / "plot.svg").read_text()
+    assert [f'inkscape:label="{i + 1} {p}"' in svg for i, p in enumerate(paints)] == [True] * 3
+    assert svg.count("<path") == 40 and {line.split('stroke="')[1][:7] for line in svg.splitlines() if "<path" in line} <= set(paints)
+    drawn = np.asarray(Image.open(io.BytesIO(bytes(resvg.svg_to_bytes(svg_path=str(out / "plot.svg"))))).convert("RGBA")) / 255
+    on_paper = torch.tensor(drawn[..., :3] * drawn[..., 3:] + 1 - drawn[..., 3:]).permute(2, 0, 1).float()
+    assert psnr(resize(on_paper, 128), resize(load_image(str(out / "final.png")), 128)) >= 26
+
+
+def test_lay_keeps_a_users_paints_and_sorts_dark_first_when_told():
+    brush = get_brush("tape")
+    mine = torch.tensor([[0.9, 0.9, 0.8], [0.1, 0.1, 0.3]])
+    paints = Paints(brush, in_order(mine, "dark_to_light"))
+    assert torch.equal(paints.colors[0], mine[1])
+    strokes = torch.rand(12, brush.d, generator=torch.Generator().manual_seed(0))
+    laid, kept = lay(paints, strokes, torch.rand(3, 32, 48), "white", steps=3, tune=False)
+    assert torch.allclose(kept.colors, (mine[[1, 0]] * 255).round() / 255)
+    layer = paints.of(laid)
+    assert layer.tolist() == sorted(layer.tolist()) and torch.equal(laid[:, list(brush.color)], kept.colors[layer])
