@@ -17,6 +17,9 @@ from torch import Tensor
 
 from nsp.brushes import Brush
 from nsp.colors import hex_color, lab_to_rgb, parse_color, rgb_to_lab
+from nsp.images import long_side, resize
+from nsp.painter.optimize import RMSprop, optimize_strokes
+from nsp.painter.renderer import AnalyticRenderer
 
 LAYER_SIZE = 128  # the long side of the canvas the layered strokes are polished on
 LAYER_LR = 3e-3  # RMSprop's rate there (strokes and paints in [0, 1])
@@ -61,10 +64,6 @@ def lay(paints: Paints, strokes: Tensor, target: Tensor, background: str, steps:
     composited in that order over the whole ``target`` (3, H, W) seen at a :data:`LAYER_SIZE` long side,
     by the soft vector engine. Returns the strokes in layer order, each exactly its paint, and the paints
     as they ended (each an 8-bit colour, which a file names exactly); ``tick()`` after each step."""
-    from nsp.images import long_side, resize
-    from nsp.painter.optimize import RMSprop, optimize_strokes
-    from nsp.painter.renderer import AnalyticRenderer
-
     paint = paints.of(strokes)
     order = torch.sort(paint, stable=True).indices
     x, paint = strokes[order].clone().requires_grad_(True), paint[order]
