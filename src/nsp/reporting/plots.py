@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 
 from nsp.reporting.collect import Job, swept_keys  # noqa: E402
 from nsp.reporting.tables import (PANEL, choices, group_keys, headline, is_painting_study, label,  # noqa: E402
-                                  painting_scores, stat)
+                                  painting_scores, renderer_order, stat)
 
 SKIPPED = {"epoch"}  # Lightning's bookkeeping, not a measurement
 
@@ -27,9 +27,9 @@ def panels(jobs: list[Job]) -> list:
 
 
 def settings(jobs: list[Job], panel) -> dict[str, list[Job]]:
-    """Jobs of one panel grouped by setting label, in first-seen order."""
+    """Jobs of one panel grouped by setting label, in first-seen order, renderers in the paper's."""
     keys, groups = group_keys(jobs), {}
-    for job in jobs:
+    for job in sorted(jobs, key=lambda job: renderer_order(str(job.choice("renderer")))) if "renderer" in keys else jobs:
         if panel is None or job.choice(PANEL) == panel:
             groups.setdefault(label(job, keys) or f"job {job.num}", []).append(job)
     return groups
@@ -46,9 +46,11 @@ def curve_tags(jobs: list[Job]) -> list[str]:
 def plot_tag(jobs: list[Job], tag: str) -> Figure:
     """``tag`` against step, a line per setting (mean over its seeds, range shaded)."""
     columns = panels(jobs)
+    names = list(dict.fromkeys(name for panel in columns for name in settings(jobs, panel)))  # one colour a setting
     fig, axes = plt.subplots(1, len(columns), figsize=(5 * len(columns), 3.6), squeeze=False, sharey=True)
     for ax, panel in zip(axes[0], columns):
-        for name, group in settings(jobs, panel).items():
+        groups = settings(jobs, panel)
+        for name, group in ((name, groups[name]) for name in names if name in groups):
             runs = [{step: value for step, value in job.curves[tag] if np.isfinite(value)} for job in group if tag in job.curves]
             if not runs:
                 continue
@@ -56,7 +58,8 @@ def plot_tag(jobs: list[Job], tag: str) -> Figure:
             values = np.array([[run[s] for s in steps] for run in runs])
             complete = all(job.status == "completed" for job in group)
             line, = ax.plot(steps, values.mean(0), label=name + ("" if complete else " (not all completed)"),
-                            linestyle="-" if complete else "--", marker="o" if len(steps) < 3 else None)
+                            color=f"C{names.index(name) % 10}", linestyle="-" if complete else "--",
+                            marker="o" if len(steps) < 3 else None)
             if len(runs) > 1:
                 ax.fill_between(steps, values.min(0), values.max(0), color=line.get_color(), alpha=0.2, linewidth=0)
         ax.set(title=f"{PANEL}={panel}" if panel is not None else tag, xlabel="step")
