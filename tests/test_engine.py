@@ -315,7 +315,7 @@ def test_another_brushs_kernel_under_a_brushs_name_is_not_used(other, name, gene
 
     monkeypatch.setattr(fused, "_Loader", Unrecorded)
     brush, consts, cpu = BRUSHES[name].plain(), dict(softness=None, tile=8), torch.device("cpu")
-    theirs = kernel_on_this_machine(fused.shade_any_size, BRUSHES[other], None)
+    theirs = kernel_on_this_machine(fused.shade_any_size, BRUSHES[other].plain(), None)
     ours = fused.package(fused.shade_any_size, brush, consts, cpu)
     ours.parent.mkdir(parents=True)
     shutil.copyfile(theirs, ours)

@@ -64,7 +64,8 @@ class Brush:
         return self
 
     def varies(self, width: int) -> bool:
-        """Whether a stroke's paint on a canvas ``width`` px wide depends on its key (see :class:`Pixels`)."""
+        """Whether this brush draws detail on a canvas ``width`` px wide that its :meth:`plain` form
+        lacks, which may vary from stroke to stroke by its key (see :class:`Pixels`)."""
         return False
 
     @property

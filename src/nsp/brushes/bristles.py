@@ -23,11 +23,12 @@ from typing import NamedTuple
 import torch
 from torch import Tensor
 
+from nsp.brushes.noise import NOISE_STD, drawn, ramp, seen, value_noise
+
 TRACK = 1 / 480  # a bristle track's width, in canvas widths (2.1 px at 1024, 8.5 px at 4096)
 SCALES = (3.0, 1.0, 0.4, 0.16)  # the noise's cells across, in tracks: clumps, tracks, fibres
 GRAIN = (0.2, 0.6, 0.4, 0.25)  # each scale's share of the height H, which the load and the streaks follow
 STRETCH = 5.0  # cells are this many times longer along the stroke than across
-NOISE_STD = 0.2145  # of value noise (measured, 2·10⁶ samples)
 TAIL = (0.7, 0.7)  # dryness from 70 % of the way to the tail: none → 70 %
 SIDES = (0.9, 0.3)  # the outer tenth of the stroke's height: up to 30 % dry (ragged edges)
 ROUND = 0.6  # the head's rounding radius, a fraction of the stroke's half height
@@ -37,47 +38,16 @@ STREAKS = 0.03  # thicker paint is darker by this much per standard deviation of
 SHARP = 0.15  # the least blur of the threshold, in standard deviations of H (antialiasing)
 LIGHT = (-1 / math.sqrt(2), -1 / math.sqrt(2))  # toward the light, on screen (x right, y down)
 RELIEF = (0.15, 0.5, 0.3, 0.08)  # each scale's share of the relief: its ridges lit, clumps' barely
-FAINTEST = 0.01  # a scale drawn with less weight is left to its mean
 LIT = 0.35  # the change of the paint's lightness per unit of slope toward the light
-_MASK = 0xFFFFFFFF
-_CROSS, _LONG = 0x27D4EB2F, 0x165667B1  # a lattice step's change of the hashed integer, across and along
-
-
-def mix(h: Tensor) -> Tensor:
-    """An integer hash: (…) int64 in [0, 2³²) -> (…) int64 in [0, 2³²) (the product stays < 2⁶³)."""
-    h = ((h ^ (h >> 16)) * 0x7FEB352D) & _MASK
-    return h ^ (h >> 15)
-
-
-def stroke_keys(seed: int, index: Tensor) -> Tensor:
-    """Each stroke's key from the painting's ``seed`` and the strokes' ``index`` (B,) int64: (B,)."""
-    return mix(((index & _MASK) * 0x2545F491 + ((seed * 0x85EBCA6B) & _MASK)) & _MASK)
-
-
-def uniform(h: Tensor) -> Tensor:
-    """A hash -> float in [0, 1)."""
-    return (h & 0xFFFFFF).to(torch.float32) / float(1 << 24)
-
-
-def ramp(lo: float, hi: float, x: Tensor) -> Tensor:
-    """0 below ``lo``, 1 above ``hi``, linear between."""
-    return ((x - lo) * (1 / (hi - lo))).clamp(0, 1)
 
 
 @functools.cache  # asked at every render
 def detail(scale: float) -> tuple[bool, ...]:
     """Which of the model's parts are drawn on a canvas ``scale`` px wide: the tracks' ragged starts,
-    then each of :data:`SCALES` (drawn from a weight of :data:`FAINTEST`); none: the model's mean.
+    then each of :data:`SCALES` (:func:`~nsp.brushes.noise.drawn`); none: the model's mean.
     Widths with the same parts share one compiled kernel (:func:`nsp.engine.kernels.shade_any_size`)."""
-    width = torch.tensor(TRACK * scale, dtype=torch.float64, device="cpu")  # a number, not a pixel
-    scales = tuple(bool(seen(cells * width) >= FAINTEST) for cells in SCALES)
-    return (bool(seen(width) > 0) and any(scales), *scales)
-
-
-def seen(pixels: Tensor) -> Tensor:
-    """How much of a pattern whose cells span ``pixels`` px is drawn (1) or replaced by its mean (0)."""
-    t = (pixels - 1.0).clamp(0, 1)
-    return t * t * (3 - 2 * t)
+    scales = drawn(tuple(cells * TRACK for cells in SCALES), scale)
+    return (bool(seen(torch.tensor(TRACK * scale, dtype=torch.float64)) > 0) and any(scales), *scales)
 
 
 def light_across(theta: Tensor) -> tuple[Tensor, Tensor]:
@@ -95,19 +65,6 @@ class Surface(NamedTuple):
     cover: Tensor
     shade: Tensor | None
     outline: Tensor
-
-
-def value_noise(cross: Tensor, long: Tensor, seed: Tensor) -> tuple[Tensor, Tensor]:
-    """Value noise at lattice coordinates (cross, long) (P, N), knots drawn from ``seed`` (P, 1):
-    its value in [0, 1] and its slope along ``cross``, each (P, N)."""
-    i, j = torch.floor(cross), torch.floor(long)
-    fi, fj = cross - i, long - j
-    corner = seed + i.to(torch.int64) * _CROSS + j.to(torch.int64) * _LONG
-    h00, h10 = uniform(mix(corner & _MASK)), uniform(mix((corner + _CROSS) & _MASK))
-    h01, h11 = uniform(mix((corner + _LONG) & _MASK)), uniform(mix((corner + _CROSS + _LONG) & _MASK))
-    wi, wj = fi * fi * (3 - 2 * fi), fj * fj * (3 - 2 * fj)
-    near, far = h00 + (h10 - h00) * wi, h01 + (h11 - h01) * wi
-    return near + (far - near) * wj, 6 * fi * (1 - fi) * ((h10 - h00) * (1 - wj) + (h11 - h01) * wj)
 
 
 def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key: Tensor, scale: float | Tensor,

@@ -1,20 +1,30 @@
 """Marker pen: a quadratic Bézier of constant thickness d and colour, drawn by a flat (square)
-pen tip that follows the curve, with uniform transparency A."""
+pen tip that follows the curve, with uniform transparency A; its ink streaks along the path and
+pools at the ends (:mod:`nsp.brushes.pigment`)."""
 from __future__ import annotations
+
+import dataclasses
+from typing import ClassVar
 
 import numpy as np
 import torch
 from torch import Tensor
 
-from nsp.brushes import bezier
+from nsp.brushes import bezier, pigment
 from nsp.brushes.base import Pixels
+from nsp.brushes.detail import Detailed
 from nsp.brushes.geometry import bezier_nearest
-from nsp.colors import hex_color
 
 _SQRT2 = 1.4143  # the square tip's corners reach √2·d from the trajectory's ends
 
 
-class MarkerPen(bezier.Bezier):
+@dataclasses.dataclass(frozen=True, eq=False)
+class MarkerPen(Detailed, bezier.Bezier):
+    svg_painted: ClassVar[bool] = True  # its paint has no vector form
+
+    def parts(self, width: int | Tensor) -> tuple[bool, ...]:
+        return pigment.streak_parts(width)
+
     def extent(self, x: Tensor, height: int, width: int) -> Tensor:
         return bezier.extent(x, _SQRT2 * x[:, self.column("d")] * width / 4, height, width)
 
@@ -41,15 +51,17 @@ class MarkerPen(bezier.Bezier):
         along, across = (qx * ux + qy * uy) / norm, (qy * ux - qx * uy) / norm
         cap_sd = torch.maximum(along.abs(), across.abs()) - d
         cov = coverage(torch.where((t <= 0) | (t >= 1), cap_sd, round_sd))
-        return x[:, self.columns("R", "B"), None] * (cov > 0)[:, None], x[:, self.alpha, None] * cov
-
-    def svg(self, index: int, p: np.ndarray, height: int, width: int) -> tuple[str, str]:
-        (x0, y0), (x1, y1), (x2, y2) = bezier.svg_points(p, height, width)
-        return "", (
-            f'<path d="M{x0:.3f} {y0:.3f} Q{x1:.3f} {y1:.3f} {x2:.3f} {y2:.3f}" fill="none" '
-            f'stroke="{hex_color(p[self.columns("R", "B")])}" stroke-width="{p[self.column("d")] * width / 2:.3f}" '
-            f'stroke-linecap="square" opacity="{p[self.alpha]:.4f}"/>'
-        )
+        color = x[:, self.columns("R", "B"), None]
+        if any(parts := self._parts(pix.width)):
+            # In the frame of the path at t (B'(t) / 2), and along it: its length lies between the control
+            # polygon's and the chord's.
+            ux, uy = torch.lerp(start[:, :1], end[:, :1], t), torch.lerp(start[:, 1:], end[:, 1:], t)
+            norm = torch.sqrt(ux * ux + uy * uy + 1e-12)
+            along, across = (qx * ux + qy * uy) / norm, (qy * ux - qx * uy) / norm
+            length = (start.norm(dim=1, keepdim=True) + end.norm(dim=1, keepdim=True) + chord.norm(dim=1, keepdim=True)) / 2
+            key = pix.key if pix.key is not None else torch.zeros_like(d, dtype=torch.int64)
+            color = pigment.tint(color, pigment.marker(t * length + along, across, length, d, key, pix.width, parts))
+        return color * (cov > 0)[:, None], x[:, self.alpha, None] * cov
 
     def centreline(self, p: np.ndarray, height: int, width: int) -> tuple[str, float, str]:
         (x0, y0), (x1, y1), (x2, y2) = bezier.svg_points(p, height, width)

@@ -16,6 +16,7 @@ from torch import Tensor
 
 from nsp.brushes import bristles
 from nsp.brushes.base import Brush, Pixels
+from nsp.brushes.detail import Detailed
 from nsp.brushes.tape import RECTANGLE, Rectangle, rectangle
 from nsp.brushes.texture import EMBEDDED, load_texture
 from nsp.brushes.geometry import box
@@ -37,39 +38,27 @@ def _digest(source: str) -> str:
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class OilPaint(Rectangle):
+class OilPaint(Detailed, Rectangle):
     """Oil paint whose paint is the bristle model (:mod:`nsp.brushes.bristles`), or a user's grayscale image
     stretched over each stroke (``texture_path``, :mod:`nsp.brushes.texture`); ``impasto`` lights its relief."""
 
     svg_painted: ClassVar[bool] = True  # its paint has no vector form
     impasto: bool = True
-    detail: tuple[bool, ...] | None = None  # the bristle model's parts drawn at every size (bristles.detail); None: the canvas's
-    _cache: dict = dataclasses.field(default_factory=dict, repr=False)
 
-    def plain(self) -> "OilPaint":
-        return self._with(bristles.detail(0))
+    def parts(self, width: int | Tensor) -> tuple[bool, ...]:
+        return bristles.detail(width)
 
     def sized(self, width: int) -> "OilPaint | None":
-        return None if self.texture_path else self._with(self._parts(width))
-
-    def _with(self, detail: tuple[bool, ...]) -> "OilPaint":
-        """This brush drawing the bristle model's ``detail`` on a canvas of any size."""
-        if detail not in self._cache:
-            self._cache[detail] = dataclasses.replace(self, detail=detail, _cache={})
-        return self._cache[detail]
-
-    def _parts(self, width: int | Tensor) -> tuple[bool, ...]:
-        """The bristle model's parts this brush draws on a canvas ``width`` px wide (:func:`bristles.detail`)."""
-        return bristles.detail(width) if self.detail is None else self.detail
+        return None if self.texture_path else super().sized(width)
 
     def varies(self, width: int) -> bool:
-        return self.texture_path is None and any(self._parts(width))
+        return self.texture_path is None and super().varies(width)
 
     @property
     def variant(self) -> str:
         texture = _digest(self.texture_path) if self.texture_path else "own"
-        detail = "" if self.detail is None else "-detail" + "".join(str(int(part)) for part in self.detail)
-        return texture + ("" if self.impasto else "-flat") + detail
+        detail = super().variant
+        return texture + ("" if self.impasto else "-flat") + (detail and "-" + detail)
 
     def paint(self, x: Tensor, pix: Pixels, coverage) -> tuple[Tensor, Tensor]:
         along, across, half_w, half_h = rectangle(x, pix)

@@ -16,7 +16,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes.base import Brush
-from nsp.brushes.bristles import stroke_keys
+from nsp.brushes.noise import stroke_keys
 from nsp.engine.fused import choose, fused, prepare
 from nsp.engine.kernels import near_tiles, shade_tiles, shade_any_size, shade_any_size_grad, tile_offsets
 

@@ -74,7 +74,7 @@ class StrokeData(L.LightningDataModule):
                  val_seed: int = 0, test_size: int = 1024, test_seed: int = 0, seed: int = 0, num_workers: int = 0,
                  render_on_device: bool = False, compile: bool = False, texture: str | None = None):
         super().__init__()
-        self.brush = get_brush(brush, texture)
+        self.brush = get_brush(brush, texture).plain()  # each stroke's mean paint: no network learns a stroke's detail from x
         self.size, self.batch_size = size, batch_size
         self.num_workers, self.render_on_device, self.compile = num_workers, render_on_device, compile
         self.batches = math.ceil(epoch_size / batch_size)
