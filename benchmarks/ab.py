@@ -28,12 +28,12 @@ from doc import machine, write_section  # noqa: E402
 PHOTOS = ("astronaut", "chelsea", "coffee", "rocket", "flower", "china")  # nsp's built-in photos
 
 
-def paint(src: Path, photo: str, brush: str, strokes: int, out: Path) -> dict:
-    """One ``python -m nsp.paint`` with ``src`` on the path: its wall seconds and metrics.json."""
+def paint(src: Path, photo: str, brush: str, strokes: int, out: Path, *overrides: str) -> dict:
+    """One ``python -m nsp.paint`` (and ``overrides``) with ``src`` on the path: its wall seconds and metrics.json."""
     shutil.rmtree(out, ignore_errors=True)
     start = time.perf_counter()
     subprocess.run([sys.executable, "-m", "nsp.paint", f"image={photo}", f"brush={brush}", f"strokes={strokes}",
-                    "progress=false", f"hydra.run.dir={out}"], env=os.environ | {"PYTHONPATH": str(src)},
+                    "progress=false", f"hydra.run.dir={out}", *overrides], env=os.environ | {"PYTHONPATH": str(src)},
                    check=True, capture_output=True)
     return {"wall": time.perf_counter() - start} | json.loads((out / "metrics.json").read_text())
 

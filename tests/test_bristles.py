@@ -112,6 +112,27 @@ def test_the_relief_is_lit_from_one_side(size):
     assert light[0.75].max() > 0.05 and light[0.75].min() < -0.05  # lighter slopes and darker ones
 
 
+@pytest.mark.parametrize("size", [1024, 4096])
+def test_a_dab_is_a_raised_mark_and_a_wide_stroke_a_gentle_swell(size):
+    """The paint's body swells to a stroke's middle: across a dab of a few tracks (a small brush's mark)
+    its slopes are steep, the side toward the light (up, for θ = 0) lighter and the other darker, the
+    dab's mean colour unchanged; across a wide stroke the same swell is too gentle to see."""
+    flat = get_brush("oilpaint", impasto=False)
+    for h, steep in ((0.005, True), (0.1, False)):
+        x = stroke(w=4 * h, h=h)
+        lit = luminance(painted(x, size) - painted(x, size, flat))  # what the light adds
+        _, alpha = render(OIL, x, size)
+        half = round(h * size / 2)
+        columns = slice(round(0.5 * size - h * size), round(0.5 * size + h * size))
+        upper, lower = (lit[rows, columns] for rows in (slice(size // 2 - half, size // 2 - half // 3),
+                                                        slice(size // 2 + half // 3, size // 2 + half)))
+        if steep:
+            assert upper.mean() > 0.03 and lower.mean() < -0.03
+            assert abs(float((lit * alpha[0, 0]).sum() / alpha[0, 0].sum())) < 0.01
+        else:
+            assert abs(float(upper.mean() - lower.mean())) < 0.02
+
+
 def test_the_soft_mode_sees_the_mean_of_a_large_render():
     """What the painter optimizes (the soft mode at its working resolution) averages to what
     final.png shows: the same cover and colour, stroke by stroke."""

@@ -1,4 +1,5 @@
 """The vector engine: batching, resolution independence, range, determinism, soft-mode gradients."""
+import dataclasses
 import functools
 import os
 import subprocess
@@ -161,23 +162,33 @@ def test_soft_mode_gradients_match_finite_differences(name, generator):
         assert torch.allclose((grad * direction).sum(), numeric, rtol=2e-3, atol=1e-4)
 
 
-def test_composite_equals_stroke_by_stroke_blending(generator):
+@pytest.mark.parametrize("glaze", [0.0, 0.5, 1.0])
+def test_composite_equals_stroke_by_stroke_blending(generator, glaze):
+    """Paint covers what is under it (glaze 0); a glaze multiplies it (1): α·s·h + (1 − α)·h."""
     fg, alpha = torch.rand(5, 3, 8, 8, generator=generator), torch.rand(5, 1, 8, 8, generator=generator)
     canvas = torch.rand(3, 8, 8, generator=generator)
     h = canvas
     for s, a in zip(fg, alpha):
-        h = a * s + (1 - a) * h
-    assert torch.allclose(composite(fg, alpha, canvas), h, atol=1e-6)
+        h = a * s * ((1 - glaze) + glaze * h) + (1 - a) * h
+    assert torch.allclose(composite(fg, alpha, canvas, glaze), h, atol=1e-6)
 
 
-def test_composite_gradients_match_finite_differences(generator):
+def test_a_glaze_darkens_where_strokes_overlap_and_is_its_colour_on_white():
+    fg, alpha = torch.full((2, 3, 1, 2), 0.6), torch.tensor([[[[1.0, 1.0]]], [[[1.0, 0.0]]]])
+    for glaze, overlap in ((0.0, 0.6), (0.5, 0.48), (1.0, 0.36)):
+        h = composite(fg, alpha, torch.ones(3, 1, 2), glaze)
+        torch.testing.assert_close(h[:, 0], torch.tensor([[overlap, 0.6]] * 3))
+
+
+@pytest.mark.parametrize("glaze", [0.0, 0.6])
+def test_composite_gradients_match_finite_differences(generator, glaze):
     """Through opaque pixels (α = 1) too, and onto a background shared by the batch."""
     fg = torch.rand(2, 4, 3, 5, 5, generator=generator, dtype=torch.float64)
     alpha = torch.rand(2, 4, 1, 5, 5, generator=generator, dtype=torch.float64)
     alpha[alpha > 0.7] = 1.0
     canvas = torch.rand(3, 5, 5, generator=generator, dtype=torch.float64)
     inputs = tuple(t.requires_grad_() for t in (fg, alpha, canvas))
-    assert torch.autograd.gradcheck(composite, inputs)
+    assert torch.autograd.gradcheck(lambda *x: composite(*x, glaze), inputs)
 
 
 def test_paint_canvas_keeps_the_aspect_ratio_and_background(generator):
@@ -555,12 +566,12 @@ def test_matrix_products_sum_in_one_order_whatever_the_load_unless_the_user_chos
     assert shown == expected
 
 
-@pytest.mark.parametrize("name", ["oilpaint", "tape"])
-def test_stroke_images_composited_in_order_are_the_painting(name):
+@pytest.mark.parametrize("name,glaze", [("oilpaint", 0.0), ("tape", 0.0), ("tape", 0.7)])
+def test_stroke_images_composited_in_order_are_the_painting(name, glaze):
     """What an SVG of stroke images holds (paint_canvas's ``images``): each stroke alone on the
-    pixels it covers, which, blended in order over the canvas, give the painting itself; a stroke
-    off the canvas has an empty image."""
-    brush = BRUSHES[name]
+    pixels it covers (a glaze: the colour it laid there), which, blended in order over the canvas,
+    give the painting itself; a stroke off the canvas has an empty image."""
+    brush = dataclasses.replace(BRUSHES[name], glaze=glaze)
     x = brush.sample(60, torch.Generator().manual_seed(3))
     x[:, 2:4] *= 0.4
     x[-1, :2] = torch.tensor([0.0, 1.0])  # centred on a corner: its image is a quarter of it
@@ -579,13 +590,13 @@ def test_stroke_images_composited_in_order_are_the_painting(name):
     assert 0 < images[-1][2].shape[0] * images[-1][2].shape[1] < 0.5 * (x[-1, 2] * 90) ** 2
 
 
-@pytest.mark.parametrize("name", ["oilpaint", "watercolor"])
-def test_blocks_composited_from_tiles_are_the_dense_composite_with_its_gradients(name):
+@pytest.mark.parametrize("name,glaze", [("oilpaint", 0.0), ("watercolor", 0.0), ("watercolor", 0.8)])
+def test_blocks_composited_from_tiles_are_the_dense_composite_with_its_gradients(name, glaze):
     """composite_blocks (the painter's soft renders, tiles only) equals render + composite, blocks of
     different stroke counts included, and so do its gradients in the strokes and the backgrounds."""
     from nsp.engine.raster import composite_blocks
 
-    brush, size = BRUSHES[name], 40
+    brush, size = dataclasses.replace(BRUSHES[name], glaze=glaze), 40
     x = brush.sample(9, torch.Generator().manual_seed(5))
     x[:, [2, 3] if name == "oilpaint" else [6, 7]] *= 0.5
     block = torch.tensor([0, 0, 0, 0, 2, 2, 2, 3, 3])  # block 1 has none
@@ -596,7 +607,8 @@ def test_blocks_composited_from_tiles_are_the_dense_composite_with_its_gradients
     def dense(x, under):
         fg, alpha = render(brush, x, size, softness=0.5)
         stacked = fg.new_zeros(4, depth, 3, size, size).index_put((block, place), fg)
-        return composite(stacked, alpha.new_zeros(4, depth, 1, size, size).index_put((block, place), alpha), under)
+        return composite(stacked, alpha.new_zeros(4, depth, 1, size, size).index_put((block, place), alpha), under,
+                         glaze)
 
     grads = []
     for paint in (dense, lambda x, under: composite_blocks(brush, x, block, under, softness=0.5)):
@@ -630,20 +642,20 @@ def test_soft_gradients_are_the_same_every_time_on_several_threads():
         torch.set_num_threads(threads)
 
 
-@pytest.mark.parametrize("name", ["oilpaint", "markerpen"])
-def test_paint_gains_are_the_error_each_stroke_alone_takes_away(name):
+@pytest.mark.parametrize("name,glaze", [("oilpaint", 0.0), ("markerpen", 0.0), ("markerpen", 1.0)])
+def test_paint_gains_are_the_error_each_stroke_alone_takes_away(name, glaze):
     """paint_gains (the painter's choice among candidate strokes, tiles only) is Σ w·|canvas − goal|
     less the same after the stroke alone is painted, each over its own block, as render computes it."""
     from nsp.engine.raster import paint_gains
 
-    brush, size, generator = BRUSHES[name], 40, torch.Generator().manual_seed(12)
+    brush, size, generator = dataclasses.replace(BRUSHES[name], glaze=glaze), 40, torch.Generator().manual_seed(12)
     x = brush.sample(10, generator)
     block = torch.tensor([0, 0, 0, 1, 1, 1, 1, 2, 2, 2])
     canvas, goal = torch.rand(3, 3, size, size, generator=generator), torch.rand(3, 3, size, size, generator=generator)
     weights = torch.rand(3, 1, size, size, generator=generator)
     with torch.no_grad():
         fg, alpha = render(brush, x, size, softness=0.5)
-        painted = torch.lerp(canvas[block], fg, alpha)
+        painted = composite(fg[:, None], alpha[:, None], canvas[block], glaze)
         want = (((canvas[block] - goal[block]).abs() - (painted - goal[block]).abs()) * weights[block]).sum((1, 2, 3))
         got = paint_gains(brush, x, block, canvas, goal, weights, softness=0.5)
     torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-3)

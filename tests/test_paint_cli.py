@@ -294,6 +294,30 @@ def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_str
     assert (tmp_path / "own.svg").read_text() != (out / "painting.svg").read_text()
 
 
+def test_a_glazed_painting_darkens_its_overlaps_and_re_renders_identically(photo, tmp_path):
+    """``brush.glaze=``: the painter and every file blend the strokes so; the stroke file carries it."""
+    from nsp.engine import paint_canvas
+    from nsp.render import RenderConfig, render
+
+    out, tiny = tmp_path / "run", [o for o in TINY if not o.startswith("animation_frames")]
+    paint(config(f"image={photo}", f"output_dir={out}", "brush=watercolor", "brush.glaze=0.8", *tiny))
+    painting = load_strokes(out / "strokes.json")
+    assert painting.brush.glaze == 0.8
+    for name, size in (("final.png", 96), ("painting.svg", 96)):
+        again = render(OmegaConf.merge(OmegaConf.structured(RenderConfig),
+                                       {"strokes": str(out / "strokes.json"), "out": str(tmp_path / name), "size": size}))
+        assert again.read_bytes() == (out / name).read_bytes()
+    covering = paint_canvas(BRUSHES["watercolor"], painting.strokes, 64, 96)  # the same strokes, each covering
+    glazed = torch.from_numpy(np.asarray(Image.open(out / "final.png"))).permute(2, 0, 1) / 255
+    assert (glazed - covering).mean() < -0.01  # overlaps darker
+
+
+def test_a_glaze_for_a_brush_that_has_none_is_one_line(tmp_path):
+    result = run(*TINY[:4], "brush=oilpaint", "brush.glaze=0.5", f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)
+    assert result.returncode != 0 and not (tmp_path / "run" / "final.png").exists()
+    assert result.stderr.strip().splitlines() == ["error: brush.glaze applies to watercolor and markerpen only, not 'oilpaint'"]
+
+
 def test_the_command_ends_at_once_with_its_files_and_its_log_complete(tmp_path):
     """``python -m nsp.paint`` ends with what it wrote all there, flushed, and its status the work's."""
     result = run(*TINY[:4], "progress=false", f"hydra.run.dir={tmp_path / 'run'}", cwd=tmp_path)

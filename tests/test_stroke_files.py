@@ -24,6 +24,30 @@ def test_json_round_trip_is_exact(name, tmp_path, generator):
     assert list(data["strokes"][0]) == list(BRUSHES[name].params)  # each stroke's named parameters
 
 
+def test_a_glaze_round_trips_and_a_file_without_one_blends_as_before_glazes(tmp_path, generator):
+    import dataclasses
+
+    from nsp.brushes import get_brush
+    from nsp.errors import BadInput
+
+    glazing = dataclasses.replace(BRUSHES["watercolor"], glaze=0.4)
+    save_strokes(tmp_path / "p.json", StrokeFile(glazing, glazing.sample(5, generator)))
+    data = json.loads((tmp_path / "p.json").read_text())
+    assert data["glaze"] == 0.4 and load_strokes(tmp_path / "p.json").brush.glaze == 0.4
+    del data["glaze"]  # painted before strokes glazed: every stroke covered what was under it
+    (tmp_path / "p.json").write_text(json.dumps(data))
+    assert load_strokes(tmp_path / "p.json").brush.glaze == 0.0
+    (tmp_path / "p.json").write_text(json.dumps(data | {"glaze": 2}))
+    with pytest.raises(StrokeFileError, match=r"brush.glaze=2: expected a number from 0 .* to 1 \(a glaze: overlaps multiply\)"):
+        load_strokes(tmp_path / "p.json")
+    with pytest.raises(BadInput, match="brush.glaze applies to watercolor and markerpen only, not 'oilpaint'"):
+        get_brush("oilpaint", glaze=0.5)
+    for name in ("watercolor", "markerpen"):  # every form of it blends as it does, whichever was asked for first
+        assert BRUSHES[name].plain().glaze == 0.0 and BRUSHES[name].sized(4096).glaze == 0.0
+        glazing = get_brush(name, glaze=0.5)
+        assert glazing.plain().glaze == glazing.sized(4096).glaze == 0.5 and BRUSHES[name].plain().glaze == 0.0
+
+
 def test_an_empty_painting_round_trips(tmp_path):
     save_strokes(tmp_path / "e.json", StrokeFile(BRUSHES["oilpaint"], torch.zeros(0, 11)))
     assert load_strokes(tmp_path / "e.json").strokes.shape == (0, 11)

@@ -48,6 +48,7 @@ class BrushConfig:
     name: str
     texture: Optional[str] = None  # grayscale image for oilpaint's bristles; None = nsp's own
     impasto: bool = True  # oilpaint: its paint's relief lit from the upper left
+    glaze: Optional[float] = None  # watercolor, markerpen: 0 covers, 1 multiplies (overlaps darken); None: the brush's
 
 
 def compile_choice(value: bool | str | None, key: str) -> bool | None:

@@ -38,7 +38,9 @@ class Brush:
         shape, color: indices of the shape and colour parameters.
         alpha: index of the transparency parameter, or ``None`` where A ≡ 1.
         reference: columns of the reference implementation's ``x_ctt`` and ``x_color`` arrays.
-        softness: the soft edge's width (pixels) the painter optimizes this brush's strokes with."""
+        softness: the soft edge's width (pixels) the painter optimizes this brush's strokes with.
+        glaze: 0 for paint that covers what is under it, 1 for a glaze whose pigment multiplies it
+            (:func:`nsp.engine.raster.glazed`): the engine and the painter blend its strokes so."""
 
     name: str
     params: tuple[str, ...]
@@ -52,6 +54,7 @@ class Brush:
     reference: tuple[int, int] = (0, 0)
     svg_painted: ClassVar[bool] = False  # its SVG holds each stroke's paint as an image (see svg_elements)
     softness: float = 0.25  # over 0.5: +0.14 to +0.26 dB for the thin and translucent brushes; oil keeps 0.5
+    glaze: float = 0.0  # how far its paint filters the colours under it (overlaps darken) rather than covering them
 
     def plain(self) -> "Brush":
         """This brush with any detail finer than its strokes (oil's bristles) replaced by its mean:

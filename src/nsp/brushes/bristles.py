@@ -8,9 +8,12 @@ scale too fine to be seen is its mean (like a mipmap): the painter, working smal
 
 - **Load**: paint covers a fraction 1 − D, where H exceeds a threshold set by the dryness D, which
   rises toward the tail (dry brush) and the sides (ragged edges); undrawn scales blur the threshold.
-- **Head**: rounded; the tail's outer streaks end early (a taper).
+- **Head**: rounded, and ragged where the brush is several tracks wide; a dab of a few tracks touches down
+  round and whole, as the tip of a small brush does. The tail's outer streaks end early (a taper).
 - **Impasto**: H's slope across the stroke, lit from the upper left: lighter facing the light,
-  darker away (the mean colour is the stroke's); thicker streaks are a little darker too.
+  darker away (the mean colour is the stroke's); thicker streaks are a little darker too. The paint's
+  body swells to the stroke's middle by a height of its own (``BODY``), so a dab's slopes are steep and
+  lit, a raised mark, and a wide stroke's a gentle swell.
 
 Randomness: an integer hash of the stroke's key (its index and the painting's seed) and the lattice
 cell: deterministic, different for every stroke, identical at every render size."""
@@ -31,8 +34,10 @@ GRAIN = (0.2, 0.6, 0.4, 0.25)  # each scale's share of the height H, which the l
 STRETCH = 5.0  # cells are this many times longer along the stroke than across
 TAIL = (0.7, 0.7)  # dryness from 70 % of the way to the tail: none → 70 %
 SIDES = (0.9, 0.3)  # the outer tenth of the stroke's height: up to 30 % dry (ragged edges)
-ROUND = 0.6  # the head's rounding radius, a fraction of the stroke's half height
+ROUND = 0.6  # the head's rounding radius, a fraction of the stroke's half height (a dab's: all of it)
 RAGGED = 4.0  # how far a track's start may stray from the head's curve, in track widths (≤ 20 % of the length)
+DAB = (1.5, 4.0)  # a stroke's half height in tracks: up to the first a dab (round head, whole), ragged from the second
+BODY = 0.35  # the paint's swell at a stroke's middle above its sides, in the relief's units per track
 TAPER = 0.5  # the tail's outer streaks end this fraction of the half height early
 STREAKS = 0.03  # thicker paint is darker by this much per standard deviation of H
 SHARP = 0.15  # the least blur of the threshold, in standard deviations of H (antialiasing)
@@ -76,19 +81,22 @@ def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key
     half_h = half_h.clamp(min=0.5)[:, None]
     side = (c / half_h).abs().clamp(max=1)
     dry = 1 - (1 - TAIL[1] * ramp(TAIL[0], 1.0, u)) * (1 - SIDES[1] * ramp(SIDES[0], 1.0, side))
-    radius = torch.minimum(ROUND * half_h, 0.5 * length[:, None])
+    width = torch.as_tensor(TRACK * scale, dtype=s.dtype, device=s.device)  # a track, in pixels
+    ragged = ramp(DAB[0], DAB[1], half_h / width)  # 0 for a dab, 1 for a stroke several tracks wide
+    radius = torch.minimum((1 - (1 - ROUND) * ragged) * half_h, 0.5 * length[:, None])
     squared = side * side
     head = radius * (1 - torch.sqrt((1 - squared).clamp(min=1e-6))) - s  # the head's rounded corners
     tail = s - (length[:, None] - TAPER * half_h * squared)  # the tail's tapered ones
     tracks, *scales = parts
     if not any(scales):  # nothing drawn: the mean of the model
         return Surface(1 - dry, None, torch.maximum(head, tail))
-    width = torch.as_tensor(TRACK * scale, dtype=s.dtype, device=s.device)  # a track, in pixels
     if tracks:
         jag, _ = value_noise(c / width, torch.zeros_like(c), key + 0x2F6B2E1D)  # each track starts a little early or late
-        head = head + seen(width) * torch.minimum(0.2 * length[:, None], RAGGED * width) * (jag - 0.5)
+        head = head + seen(width) * ragged * torch.minimum(0.2 * length[:, None], RAGGED * width) * (jag - 0.5)
     outline = torch.maximum(head, tail)
-    height, slope, unseen = 0, 0, 0.0  # unseen: the variance of H left undrawn
+    height, unseen = 0, 0.0  # unseen: the variance of H left undrawn
+    # The body's slope, per track: BODY·(1 − (c / half_h)²) differentiated, no steeper than a track-high stroke's.
+    slope = -2 * BODY * width * (c / half_h).clamp(-1, 1) / torch.maximum(half_h, width)
     for k, (cells, grain, relief, drawn) in enumerate(zip(SCALES, GRAIN, RELIEF, scales)):
         cell = cells * width  # pixels
         weight = seen(cell)

@@ -1,6 +1,7 @@
 """Whole paintings: an ordered stroke list composited onto a coloured canvas."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Iterator
 
@@ -86,16 +87,18 @@ class TiledCanvas:
         ``ends`` (ascending, the last N): an animation's frames, still rasterized a chunk at a time."""
         ends, done = iter(ends), 0
         end = next(ends, None)
-        for part in chunks(brush, strokes, self.height, self.width, chunk):
-            tiles = rasterize(brush, part, self.height, self.width, softness=softness, tile=self.tile, compile=compile,
-                              first=first + done)
-            if images is not None:
-                images += box_images(brush, part, tiles, self.height, self.width)
-            start, stop = done, done + len(part)
+        for strokes_part in chunks(brush, strokes, self.height, self.width, chunk):
+            tiles = rasterize(brush, strokes_part, self.height, self.width, softness=softness, tile=self.tile,
+                              compile=compile, first=first + done)
+            start, stop = done, done + len(strokes_part)
             while start < stop:  # the chunk's strokes up to the next end, or to its own end
                 until = min(stop, len(strokes) if end is None else end)
                 part = tiles if (start, until) == (done, stop) else tiles.between(start - done, until - done)
-                composite_tiles(self.tiles, part.tile, part.fg, part.alpha, part.layers)
+                laid = [] if images is not None and brush.glaze else None
+                composite_tiles(self.tiles, part.tile, part.fg, part.alpha, part.layers, brush.glaze, laid=laid)
+                if images is not None:  # a glaze's image holds what it laid over this canvas
+                    part = dataclasses.replace(part, fg=torch.cat([part.fg[:0], *laid])) if laid is not None else part
+                    images += box_images(brush, strokes_part[start - done : until - done], part, self.height, self.width)
                 if until == end:
                     yield end
                     end = next(ends, None)

@@ -44,11 +44,12 @@ class Tiles:
     cols: int
 
     def between(self, first: int, last: int) -> "Tiles":
-        """The pairs of strokes first, …, last − 1 alone, in layers of their own."""
+        """The pairs of strokes first, …, last − 1 alone (numbered from 0), in layers of their own."""
         keep = ((self.stroke >= first) & (self.stroke < last)).nonzero()[:, 0]
         order, layers = in_layers(self.tile[keep])  # a tile's pairs, in layer order, are in stroke order
         keep = keep[order]
-        return Tiles(self.stroke[keep], self.tile[keep], self.fg[keep], self.alpha[keep], layers, self.rows, self.cols)
+        return Tiles(self.stroke[keep] - first, self.tile[keep], self.fg[keep], self.alpha[keep], layers, self.rows,
+                     self.cols)
 
 
 def in_layers(tile: Tensor) -> tuple[Tensor, list[int]]:
@@ -259,12 +260,19 @@ def clear(image: Tensor) -> Tensor:
     return image.zero_()
 
 
-def composite(fg: Tensor, alpha: Tensor, canvas: Tensor) -> Tensor:
-    """Soft blending h_i = α_i·s_i + (1 − α_i)·h_{i−1} over an ordered stroke list: foregrounds s_i
-    ``fg`` (..., N, 3, H, W), first stroke painted first, and ``alpha`` (..., N, 1, H, W) over the
-    background h_0 ``canvas`` (..., 3, H, W; it may broadcast against fg's leading dims) -> h_N
-    (..., 3, H, W), differentiable in all three (:class:`Blend`)."""
-    return Blend.apply(fg, alpha, canvas)
+def glazed(under: Tensor, fg: Tensor, glaze: float) -> Tensor:
+    """The colour paint ``fg`` lays over ``under`` (both (..., 3, …)): fg itself where it covers
+    (``glaze`` 0), fg·under where it is a glaze (1: its pigment filters what the layers under it let
+    through, so overlaps darken), fg·(1 − glaze + glaze·under) between. Over white, always fg."""
+    return fg if not glaze else fg * (1 - glaze + glaze * under)
+
+
+def composite(fg: Tensor, alpha: Tensor, canvas: Tensor, glaze: float = 0.0) -> Tensor:
+    """Soft blending h_i = α_i·s_i + (1 − α_i)·h_{i−1} over an ordered stroke list: foregrounds
+    ``fg`` (..., N, 3, H, W), first stroke painted first, laid as s_i = :func:`glazed` (h_{i−1}, fg_i,
+    ``glaze``), and ``alpha`` (..., N, 1, H, W) over the background h_0 ``canvas`` (..., 3, H, W; it
+    may broadcast against fg's leading dims) -> h_N (..., 3, H, W), differentiable in all three (:class:`Blend`)."""
+    return Blend.apply(fg, alpha, canvas, glaze)
 
 
 class Blend(torch.autograd.Function):
@@ -273,40 +281,46 @@ class Blend(torch.autograd.Function):
     with zeros in it (opaque pixels), 4–5× the time of these N steps, forward and backward."""
 
     @staticmethod
-    def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor) -> Tensor:
+    def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor, glaze: float) -> Tensor:
         ctx.save_for_backward(fg, alpha, canvas)
+        ctx.glaze = glaze
         h = canvas
         for i in range(fg.shape[-4]):
-            h = torch.lerp(h, fg[..., i, :, :, :], alpha[..., i, :, :, :])
+            h = torch.lerp(h, glazed(h, fg[..., i, :, :, :], glaze), alpha[..., i, :, :, :])
         return h
 
     @staticmethod
-    def backward(ctx, grad: Tensor) -> tuple[Tensor, Tensor, Tensor | None]:
-        """With g_i = ∂L/∂h_i: ∂L/∂s_i = g_i·α_i, ∂L/∂α_i = Σ_channels g_i·(s_i − h_{i−1}),
-        g_{i−1} = g_i·(1 − α_i); the states h_{i−1} are blended again, not kept from forward."""
+    def backward(ctx, grad: Tensor) -> tuple[Tensor, Tensor, Tensor | None, None]:
+        """With g_i = ∂L/∂h_i: ∂L/∂fg_i = g_i·α_i·(1 − γ + γ·h_{i−1}), ∂L/∂α_i = Σ_channels g_i·(s_i − h_{i−1}),
+        g_{i−1} = g_i·(1 − α_i + α_i·γ·fg_i) (γ: the glaze); the states h_{i−1} are blended again, not kept
+        from forward."""
         fg, alpha, canvas = ctx.saved_tensors
-        before = [canvas]  # h_0 … h_{N−1}
+        glaze, before = ctx.glaze, [canvas]  # h_0 … h_{N−1}
         for i in range(fg.shape[-4] - 1):
-            before.append(torch.lerp(before[-1], fg[..., i, :, :, :], alpha[..., i, :, :, :]))
+            before.append(torch.lerp(before[-1], glazed(before[-1], fg[..., i, :, :, :], glaze), alpha[..., i, :, :, :]))
         grad_fg, grad_alpha = torch.empty_like(fg), torch.empty_like(alpha)
         for i in reversed(range(fg.shape[-4])):
-            a = alpha[..., i, :, :, :]
-            torch.mul(grad, a, out=grad_fg[..., i, :, :, :])
-            torch.sum(grad * (fg[..., i, :, :, :] - before[i]), -3, keepdim=True, out=grad_alpha[..., i, :, :, :])
-            grad = grad * (1 - a)
-        return grad_fg, grad_alpha, grad.sum_to_size(canvas.shape) if ctx.needs_input_grad[2] else None
+            a, f = alpha[..., i, :, :, :], fg[..., i, :, :, :]
+            torch.mul(grad, a if not glaze else a * (1 - glaze + glaze * before[i]), out=grad_fg[..., i, :, :, :])
+            torch.sum(grad * (glazed(before[i], f, glaze) - before[i]), -3, keepdim=True, out=grad_alpha[..., i, :, :, :])
+            grad = grad * (1 - a) if not glaze else grad * (1 - a + a * glaze * f)
+        return grad_fg, grad_alpha, grad.sum_to_size(canvas.shape) if ctx.needs_input_grad[2] else None, None
 
 
-def composite_tiles(canvas: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int],
-                    before: list | None = None) -> Tensor:
+def composite_tiles(canvas: Tensor, tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int], glaze: float = 0.0,
+                    before: list | None = None, laid: list | None = None) -> Tensor:
     """Blend sparse strokes, pairs sorted in layers of ``sizes`` as in :class:`Tiles` (fg (P, 3, n),
     alpha (P, n), on tiles ``tile`` (P,)), onto the tiled ``canvas`` (T, 3, n) in stroke order, in place
     (autograd follows: no op saves the canvas itself), a layer at a time, not a stroke; returns it.
-    ``before``, if given, gets each layer's tiles as they were under it."""
+    ``glaze``: as :func:`composite`'s. ``before``, if given, gets each layer's tiles as they were under
+    it; ``laid``, the colour each layer laid (:func:`glazed`)."""
     for t, f, a in _layers(tile, fg, alpha, sizes):
         under = canvas.index_select(0, t)
         if before is not None:
             before.append(under)
+        f = glazed(under, f, glaze)
+        if laid is not None:
+            laid.append(f)
         canvas.index_copy_(0, t, torch.lerp(under, f, a))  # α·s + (1 − α)·h
     return canvas
 
@@ -338,7 +352,8 @@ def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, s
     order, layers = in_layers(where)
     pairs = by_stroke[order]
     canvas = to_tiles(under, tile).reshape(blocks * per_block, 3, tile * tile)
-    out = TileBlend.apply(tiles.fg.index_select(0, pairs), tiles.alpha.index_select(0, pairs), canvas, where[order], layers)
+    out = TileBlend.apply(tiles.fg.index_select(0, pairs), tiles.alpha.index_select(0, pairs), canvas, where[order], layers,
+                          brush.glaze)
     return untile(out.view(blocks, per_block, 3, tile * tile), size, size, tile)
 
 
@@ -352,7 +367,7 @@ def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Te
     tiles, where, per_block = _block_tiles(brush, x, block, size, softness, tile, compile)
     under, aim, weight = (to_tiles(image, tile).reshape(blocks * per_block, -1, tile * tile).index_select(0, where)
                           for image in (canvas, goal, weights))
-    painted = torch.lerp(under, tiles.fg, tiles.alpha[:, None])
+    painted = torch.lerp(under, glazed(under, tiles.fg, brush.glaze), tiles.alpha[:, None])
     gain = (((under - aim).abs() - (painted - aim).abs()) * weight).sum((1, 2))
     return gain.new_zeros(len(x)).index_add_(0, tiles.stroke, gain)
 
@@ -360,25 +375,24 @@ def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Te
 class TileBlend(torch.autograd.Function):
     """:func:`composite_tiles` out of place, with its gradients written out as :class:`Blend`'s, on
     the pairs' pixels alone: fg (P, 3, n), alpha (P, n) over the tiled canvas (T, 3, n), pair p on
-    tile ``tile[p]``, the pairs sorted in ``layers``."""
+    tile ``tile[p]``, the pairs sorted in ``layers``, laid with ``glaze``."""
 
     @staticmethod
-    def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor, tile: Tensor, layers: list[int]) -> Tensor:
+    def forward(ctx, fg: Tensor, alpha: Tensor, canvas: Tensor, tile: Tensor, layers: list[int], glaze: float) -> Tensor:
         before = []  # each layer's tiles as they were under it (a pair's pixels: as small as fg)
-        out = composite_tiles(canvas.clone(), tile, fg, alpha, layers, before)
+        out = composite_tiles(canvas.clone(), tile, fg, alpha, layers, glaze, before)
         ctx.save_for_backward(fg, alpha, tile, *before)
-        ctx.layers = layers
+        ctx.layers, ctx.glaze = layers, glaze
         return out
 
     @staticmethod
-    def backward(ctx, grad: Tensor) -> tuple[Tensor, Tensor, Tensor, None, None]:
-        """The layers are run back over the tiles each was blended onto: ∂L/∂s = g·α,
-        ∂L/∂α = Σ_channels g·(s − h), and g·(1 − α) goes on to the layer below."""
+    def backward(ctx, grad: Tensor) -> tuple[Tensor, Tensor, Tensor, None, None, None]:
+        """The layers are run back over the tiles each was blended onto, as :meth:`Blend.backward`."""
         fg, alpha, tile, *before = ctx.saved_tensors
-        grad, grad_fg, grad_alpha = grad.clone(), [], []
+        grad, grad_fg, grad_alpha, glaze = grad.clone(), [], [], ctx.glaze
         for (t, f, a), under in reversed(list(zip(_layers(tile, fg, alpha, ctx.layers), before))):
             g = grad.index_select(0, t)
-            grad_fg.append(g * a)
-            grad_alpha.append((g * (f - under)).sum(1))
-            grad.index_copy_(0, t, g * (1 - a))
-        return torch.cat([fg[:0], *grad_fg[::-1]]), torch.cat([alpha[:0], *grad_alpha[::-1]]), grad, None, None  # none: no pair
+            grad_fg.append(g * a if not glaze else g * a * (1 - glaze + glaze * under))
+            grad_alpha.append((g * (glazed(under, f, glaze) - under)).sum(1))
+            grad.index_copy_(0, t, g * (1 - a) if not glaze else g * (1 - a + a * glaze * f))
+        return torch.cat([fg[:0], *grad_fg[::-1]]), torch.cat([alpha[:0], *grad_alpha[::-1]]), grad, None, None, None

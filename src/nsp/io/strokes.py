@@ -16,6 +16,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import BRUSHES, Brush, get_brush
+from nsp.brushes.registry import GLAZING
 from nsp.brushes.texture import EMBEDDED, embedded
 from nsp.colors import parse_color
 from nsp.errors import BadInput
@@ -67,6 +68,8 @@ def save_strokes(path: str | Path, painting: StrokeFile) -> None:
     }
     if not getattr(brush, "impasto", True):
         data["impasto"] = False
+    if brush.name in GLAZING:
+        data["glaze"] = brush.glaze  # how its strokes blend (a file without it was painted before glazes: 0)
     if brush.texture_path is not None:
         data["texture"] = embedded(brush.texture_path)  # the image itself: a stroke file names no file to read
     write_json(path, data, indent=1)
@@ -134,6 +137,7 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
         raise StrokeFileError(f"strokes={path}: a stroke parameter is far outside [0, 1]") from None
     _check_range(path, values, spec.params)
     texture, seed, impasto = data.get("texture"), data.get("seed", 0), data.get("impasto", True)
+    glaze = data.get("glaze", 0.0 if spec.name in GLAZING else None)
     _check(texture is None or (isinstance(texture, str) and texture.startswith(EMBEDDED)),
            f'strokes={path}: its "texture" is not an embedded image ({EMBEDDED}…); '
            "a stroke file carries its texture, it names no file to read")
@@ -141,7 +145,7 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
            f'strokes={path}: its "seed" {str(seed)[:40]!r} is not an integer')
     _check(isinstance(impasto, bool), f'strokes={path}: its "impasto" {str(impasto)[:40]!r} is not true or false')
     try:
-        spec = get_brush(spec.name, texture, params, seed=seed, impasto=impasto)
+        spec = get_brush(spec.name, texture, params, seed=seed, impasto=impasto, glaze=glaze)
     except ValueError as error:
         raise StrokeFileError(f"strokes={path}: its brush cannot be used: {error}") from None
     return StrokeFile(spec, values, canvas["height"], canvas["width"], canvas["background"])

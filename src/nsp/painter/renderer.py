@@ -13,7 +13,7 @@ from torch import Tensor, nn
 
 from nsp.brushes import Brush
 from nsp.engine import composite, render
-from nsp.engine.raster import composite_blocks, paint_gains, render_whole
+from nsp.engine.raster import composite_blocks, glazed, paint_gains, render_whole
 from nsp.errors import BadInput
 from nsp.painter.settings import RendererConfig
 from nsp.renderers.checkpoint import load_renderer
@@ -49,7 +49,7 @@ class AnalyticRenderer:
         """Strokes x (B, K, d), each block's in order, painted over its block of ``under`` (B, 3, s, s)
         where ``shown`` (B, K) bool (None: all): (B, 3, s, s), differentiable in x and under."""
         if self.static or (self.static is None and x.device.type != "cpu"):
-            return _composite(*self(x.flatten(0, 1), under.shape[-1], whole=True), shown, under)
+            return _composite(*self(x.flatten(0, 1), under.shape[-1], whole=True), shown, under, self.brush.glaze)
         shown = torch.ones(x.shape[:2], dtype=torch.bool, device=x.device) if shown is None else shown
         return composite_blocks(self.brush, x[shown], shown.nonzero()[:, 0], under, softness=self.softness,
                                 compile=self.compile)  # only the tiles each stroke touches shaded and blended
@@ -58,16 +58,17 @@ class AnalyticRenderer:
         """How much each stroke x (N, d), painted alone over its ``block`` (N,) of ``canvas`` (B, 3, s, s),
         lowers Σ weights·|canvas − goal| there (weights (B, 1, s, s)): (N,)."""
         if self.static or (self.static is None and x.device.type != "cpu"):
-            return _gains(*self(x, canvas.shape[-1], whole=True), block, canvas, goal, weights)
+            return _gains(*self(x, canvas.shape[-1], whole=True), block, canvas, goal, weights, self.brush.glaze)
         return paint_gains(self.brush, x, block, canvas, goal, weights, softness=self.softness, compile=self.compile)
 
 
 class NeuralRenderer:
     """A trained network (paper §3.2) whose S×S output every block is resampled to."""
 
-    def __init__(self, network: nn.Module, size: int):
+    def __init__(self, network: nn.Module, size: int, glaze: float = 0.0):
+        """``glaze``: its brush's (:attr:`nsp.brushes.Brush.glaze`), for blending the strokes it renders."""
         self.network = network.eval().requires_grad_(False)  # only the strokes are optimized
-        self.size = size
+        self.size, self.glaze = size, glaze
 
     def resolution(self, side: int) -> int:
         return self.size
@@ -77,25 +78,26 @@ class NeuralRenderer:
 
     def composite(self, x: Tensor, shown: Tensor | None, under: Tensor) -> Tensor:
         """As :meth:`AnalyticRenderer.composite`."""
-        return _composite(*self(x.flatten(0, 1), under.shape[-1]), shown, under)
+        return _composite(*self(x.flatten(0, 1), under.shape[-1]), shown, under, self.glaze)
 
     def gains(self, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
         """As :meth:`AnalyticRenderer.gains`, from each stroke's whole image."""
-        return _gains(*self(x, canvas.shape[-1]), block, canvas, goal, weights)
+        return _gains(*self(x, canvas.shape[-1]), block, canvas, goal, weights, self.glaze)
 
 
-def _composite(fg: Tensor, alpha: Tensor, shown: Tensor | None, under: Tensor) -> Tensor:
+def _composite(fg: Tensor, alpha: Tensor, shown: Tensor | None, under: Tensor, glaze: float) -> Tensor:
     """Fg (B·K, 3, s, s), alpha (B·K, 1, s, s), each block's K in order, over ``under`` (B, 3, s, s), where ``shown``."""
     blocks, _, size, _ = under.shape
     if shown is not None:
         alpha = alpha * shown.reshape(-1, 1, 1, 1)
-    return composite(fg.view(blocks, -1, 3, size, size), alpha.view(blocks, -1, 1, size, size), under)
+    return composite(fg.view(blocks, -1, 3, size, size), alpha.view(blocks, -1, 1, size, size), under, glaze)
 
 
-def _gains(fg: Tensor, alpha: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor) -> Tensor:
+def _gains(fg: Tensor, alpha: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor,
+           glaze: float) -> Tensor:
     """Σ w·(|canvas − goal| − |painted − goal|) (N,) of strokes fg (N, 3, s, s), alpha (N, 1, s, s) on their ``block``."""
     under, aim = canvas.index_select(0, block), goal.index_select(0, block)
-    painted = torch.lerp(under, fg, alpha)
+    painted = torch.lerp(under, glazed(under, fg, glaze), alpha)
     return (((under - aim).abs() - (painted - aim).abs()) * weights.index_select(0, block)).sum((1, 2, 3))
 
 
@@ -110,4 +112,4 @@ def build_renderer(cfg: RendererConfig, brush: Brush,
     if trained_for != brush.name:
         raise BadInput(f"renderer.checkpoint={cfg.checkpoint} renders {trained_for} strokes, not brush={brush.name}; "
                        f"use brush={trained_for} or a checkpoint from `python -m nsp.train brush={brush.name}`")
-    return NeuralRenderer(network.to(device), size)
+    return NeuralRenderer(network.to(device), size, brush.glaze)

@@ -51,7 +51,8 @@ def prepare(cfg: PaintConfig, photo: torch.Tensor | None = None) -> tuple[Painte
     device = resolve_device(cfg.device)
     try:
         parse_color(cfg.background)
-        brush = get_brush(cfg.brush.name, cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto)
+        brush = get_brush(cfg.brush.name, cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto,
+                          glaze=cfg.brush.glaze)
         # the photo's long side: the largest it is used at (working canvas, final.png, scores, style)
         largest = max(cfg.work_size, cfg.render_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0)
         if photo is None:
