@@ -296,6 +296,7 @@ def test_a_painting_with_its_own_oil_texture_re_renders_identically_from_its_str
 
 def test_a_glazed_painting_darkens_its_overlaps_and_re_renders_identically(photo, tmp_path):
     """``brush.glaze=``: the painter and every file blend the strokes so; the stroke file carries it."""
+    from nsp.brushes import get_brush
     from nsp.engine import paint_canvas
     from nsp.render import RenderConfig, render
 
@@ -307,7 +308,7 @@ def test_a_glazed_painting_darkens_its_overlaps_and_re_renders_identically(photo
         again = render(OmegaConf.merge(OmegaConf.structured(RenderConfig),
                                        {"strokes": str(out / "strokes.json"), "out": str(tmp_path / name), "size": size}))
         assert again.read_bytes() == (out / name).read_bytes()
-    covering = paint_canvas(BRUSHES["watercolor"], painting.strokes, 64, 96)  # the same strokes, each covering
+    covering = paint_canvas(get_brush("watercolor", glaze=0.0), painting.strokes, 64, 96)  # the same strokes, covering
     glazed = torch.from_numpy(np.asarray(Image.open(out / "final.png"))).permute(2, 0, 1) / 255
     assert (glazed - covering).mean() < -0.01  # overlaps darker
 

@@ -7,11 +7,13 @@ import numpy as np
 import pytest
 import resvg_py as resvg
 import torch
+import vpype_cli
 from PIL import Image
 
 from nsp.brushes import get_brush
 from nsp.colors import parse_color, rgb_to_lab
 from nsp.images import load_image, psnr, resize
+from nsp.io.machine import visible
 from nsp.io.strokes import load_strokes
 from nsp.painter.paints import Paints, in_order, lay
 from test_catalogue import run_cli
@@ -58,6 +60,22 @@ def test_a_painting_in_three_paints_is_laid_layer_by_layer_and_plot_svg_draws_it
     drawn = np.asarray(Image.open(io.BytesIO(bytes(resvg.svg_to_bytes(svg_path=str(out / "plot.svg"))))).convert("RGBA")) / 255
     on_paper = torch.tensor(drawn[..., :3] * drawn[..., 3:] + 1 - drawn[..., 3:]).permute(2, 0, 1).float()
     assert psnr(resize(on_paper, 128), resize(load_image(str(out / "final.png")), 128)) >= 26
+    assert load_strokes(out / "strokes.json").paints == paints  # a machine's file can be made from it later
+    assert len(vpype_cli.execute(f"read {out / 'plot.svg'}").layers) == 3  # vpype reads a layer a paint
+
+    # The machines' files, as a user asks for them: G-code pausing for paint at each layer and every 10 strokes.
+    code, err = run_cli("nsp.render", [f"strokes={out / 'strokes.json'}", f"out={tmp_path / 'plot.gcode'}",
+                                       "plot.refill=10"], capsys, monkeypatch)
+    assert code == 0, err
+    shown = visible(brush, strokes, 128, 128)
+    per_paint = [int(((torch.tensor(layer) == k) & torch.from_numpy(shown)).sum()) for k in range(3)]
+    gcode = (tmp_path / "plot.gcode").read_text()
+    assert gcode.count("\nM0 ") == sum(-(-n // 10) for n in per_paint) and gcode.rstrip().endswith("M2")
+    code, err = run_cli("nsp.render", [f"strokes={out / 'strokes.json'}", f"out={tmp_path / 'plot.hpgl'}"],
+                        capsys, monkeypatch)
+    assert code == 0, err
+    hpgl = (tmp_path / "plot.hpgl").read_text()
+    assert hpgl.startswith("IN;") and [hpgl.index(f"SP{k};") for k in (1, 2, 3)] == sorted(hpgl.index(f"SP{k};") for k in (1, 2, 3))
 
 
 def test_lay_keeps_a_users_paints_and_sorts_dark_first_when_told():

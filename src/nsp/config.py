@@ -51,6 +51,17 @@ class BrushConfig:
     glaze: Optional[float] = None  # watercolor, markerpen: 0 covers, 1 multiplies (overlaps darken); None: the brush's
 
 
+@dataclass
+class PlotConfig:
+    """``nsp.render``'s ``plot.*``: how a painting laid in paints becomes a machine's file (nsp.io.machine)."""
+
+    page: str = "a4"  # vpype's page formats (a4, a3, letter, …) or WxH with a unit (30x40cm)
+    margin: str = "10mm"  # kept clear on every side
+    pen: str = "0.5mm"  # the line a pen (or brush) draws: a wider stroke takes several passes
+    refill: Optional[str] = None  # G-code: a pause for paint every N strokes (20) or length of line (2m); None: per paint
+    device: str = "hp7475a"  # HPGL: the plotter, as vpype knows it (its pens: one a paint, cycling past its count)
+
+
 def compile_choice(value: bool | str | None, key: str) -> bool | None:
     """A ``compile`` option (``true``, ``false`` or ``auto``) as the engine takes it: True, False, or None
     for auto (:func:`nsp.engine.fused.choose`); :class:`BadInput` naming ``key`` for any other value."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional, Union
 
@@ -13,7 +13,7 @@ from hydra.core.config_store import ConfigStore
 from omegaconf import MISSING, DictConfig, OmegaConf
 
 from nsp.cli import command, fail, program
-from nsp.config import compile_choice
+from nsp.config import PlotConfig, compile_choice
 from nsp.errors import BadInput
 from nsp.signals import numpy_before_torch
 
@@ -30,6 +30,7 @@ class RenderConfig:
     compile: Union[bool, str, None] = "auto"
     device: str = "cpu"  # cpu, cuda, cuda:N or auto
     brush: Optional[Any] = None  # a ``brush`` group option (nsp.config.BrushConfig); for reference .npz files only
+    plot: PlotConfig = field(default_factory=PlotConfig)  # out=….hpgl or ….gcode: a painting laid in paints, for a machine
 
 
 ConfigStore.instance().store(name="render_schema", node=RenderConfig)
@@ -43,14 +44,15 @@ def render(cfg: DictConfig) -> Path:
     from nsp.engine.device import resolve_device
     from nsp.engine.memory import check_render, check_side
     from nsp.io.export import EXTENSIONS, frame_ends, write_painting
+    from nsp.io.machine import MACHINE, write_machine
     from nsp.io.strokes import load_strokes
 
     out = Path(cfg.out)
     suffix = out.suffix.lower()
     if out.is_dir():
-        raise BadInput(f"out={cfg.out} is a folder; expected a file path ending in {', '.join(EXTENSIONS)}")
-    if suffix not in EXTENSIONS:
-        raise BadInput(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS)}")
+        raise BadInput(f"out={cfg.out} is a folder; expected a file path ending in {', '.join(EXTENSIONS + MACHINE)}")
+    if suffix not in EXTENSIONS + MACHINE:
+        raise BadInput(f"out={cfg.out}: unknown extension '{out.suffix}', expected one of {', '.join(EXTENSIONS + MACHINE)}")
     check_side(cfg.size)
     compile = compile_choice(cfg.compile, "compile")
     device = resolve_device(cfg.device)
@@ -65,8 +67,14 @@ def render(cfg: DictConfig) -> Path:
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise BadInput(f"out={cfg.out}: cannot make its folder {out.parent} ({err.strerror or err})") from None
+    if suffix in MACHINE and painting.paints is None:
+        raise BadInput(f"out={cfg.out}: strokes={cfg.strokes} has no paints; a machine paints with some "
+                       "(python -m nsp.paint … paints=6, or paints=[#rrggbb,…])")
     try:
-        write_painting(out, brush, painting.strokes.to(device), height, width, background, compile)
+        if suffix in MACHINE:
+            write_machine(out, brush, painting.strokes, painting.paints, height, width, cfg.plot)
+        else:
+            write_painting(out, brush, painting.strokes.to(device), height, width, background, compile)
     except OSError as err:
         raise BadInput(f"out={cfg.out}: cannot write it ({err.strerror or err})") from None
     return out
@@ -77,7 +85,7 @@ def main(cfg: DictConfig) -> None:
     try:
         for key in ("strokes", "out"):
             if OmegaConf.is_missing(cfg, key):
-                raise BadInput(f"{key}= is required (strokes=PATH out=PATH.png|.svg|.gif)")
+                raise BadInput(f"{key}= is required (strokes=PATH out=PATH.png|.svg|.gif|.hpgl|.gcode)")
         print(f"rendering {cfg.strokes} as {cfg.out}…", flush=True)  # the first line, before the engine loads
         out = render(cfg)
         print(f"wrote {out} in {time.perf_counter() - start:.1f} s")

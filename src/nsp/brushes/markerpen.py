@@ -71,5 +71,6 @@ class MarkerPen(Detailed, bezier.Bezier):
 MARKERPEN = MarkerPen(
     name="markerpen", params=bezier.CONTROL + ("d", "R", "G", "B", "A"), shape=tuple(range(7)), color=(7, 8, 9),
     kinds=("x", "y") * 3 + ("size",) + ("color",) * 3 + ("alpha",), alpha=10, reference=(8, 3),
+    glaze=0.1,  # overlapping strokes darken a little (brush.glaze=); benchmarks/glaze.py: no PSNR cost at 500 strokes
     description="quadratic Bézier of constant thickness with a flat, square pen tip",
 )

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import zipfile
 import zlib
 from dataclasses import dataclass
@@ -19,6 +20,7 @@ from nsp.brushes import BRUSHES, Brush, get_brush
 from nsp.brushes.registry import GLAZING
 from nsp.brushes.texture import EMBEDDED, embedded
 from nsp.colors import parse_color
+from nsp.config import MAX_PAINTS
 from nsp.errors import BadInput
 from nsp.files import write_json
 from nsp.text import shown
@@ -49,6 +51,7 @@ class StrokeFile:
     height: int = 512  # the canvas the strokes were made for: only its aspect ratio matters
     width: int = 512
     background: str = "white"  # black, white or #rrggbb
+    paints: list[str] | None = None  # the paints (#rrggbb) it was laid in, layer by layer (``paints=``); None: free colours
 
     def size(self, long_side: int) -> tuple[int, int]:
         """(height, width) in pixels for a render whose long side is ``long_side``."""
@@ -70,6 +73,8 @@ def save_strokes(path: str | Path, painting: StrokeFile) -> None:
         data["impasto"] = False
     if brush.name in GLAZING:
         data["glaze"] = brush.glaze  # how its strokes blend (a file without it was painted before glazes: 0)
+    if painting.paints is not None:
+        data["paints"] = list(painting.paints)
     if brush.texture_path is not None:
         data["texture"] = embedded(brush.texture_path)  # the image itself: a stroke file names no file to read
     write_json(path, data, indent=1)
@@ -148,7 +153,11 @@ def _load_json(path: Path, brush: str | None) -> StrokeFile:
         spec = get_brush(spec.name, texture, params, seed=seed, impasto=impasto, glaze=glaze)
     except ValueError as error:
         raise StrokeFileError(f"strokes={path}: its brush cannot be used: {error}") from None
-    return StrokeFile(spec, values, canvas["height"], canvas["width"], canvas["background"])
+    paints = data.get("paints")
+    _check(paints is None or (isinstance(paints, list) and 1 <= len(paints) <= MAX_PAINTS and all(
+        isinstance(paint, str) and re.fullmatch(r"#[0-9a-fA-F]{6}", paint) for paint in paints)),
+           f'strokes={path}: its "paints" {str(paints)[:60]} are not 1 to {MAX_PAINTS} colours #rrggbb')
+    return StrokeFile(spec, values, canvas["height"], canvas["width"], canvas["background"], paints)
 
 
 def _shown_size(value: int) -> str:
@@ -210,7 +219,7 @@ def _read_npz(path: Path) -> list[np.ndarray]:
 
 
 def _load_npz(path: Path, brush: str, size: int) -> StrokeFile:
-    spec = get_brush(brush)
+    spec = get_brush(brush, glaze=0.0 if brush in GLAZING else None)  # the reference's strokes cover what is under them
     ctt, color, alpha = (a.reshape(-1, a.shape[-1]) if a.ndim == 3 else a for a in _read_npz(path))
     n_ctt, n_color = spec.reference
     _check(ctt.shape[1:] == (n_ctt,) and color.shape[1:] == (n_color,) and len(ctt) == len(color) == alpha.size,

@@ -47,7 +47,7 @@ def write_files(out: Path, strokes: Tensor, brush: Brush, photo: Tensor, backgro
     aspect = photo.shape[-2:]
     photo = resize(photo.cpu(), long_side(*aspect, SCORE_SIZE))  # as similarity() compares it
     height, width = long_side(*aspect, render_size)
-    save_strokes(out / "strokes.json", StrokeFile(brush, strokes, height, width, background))
+    save_strokes(out / "strokes.json", StrokeFile(brush, strokes, height, width, background, paints))
     color = torch.tensor(parse_color(background), device=strokes.device)[:, None, None]
     canvas = TiledCanvas(color.expand(3, height, width))
     animation = Animation(brush, len(strokes), *long_side(*aspect, animation_size), background, frames, compile,
