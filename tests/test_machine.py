@@ -69,3 +69,21 @@ def test_refills_are_g_codes_not_hpgls(tmp_path):
     strokes = torch.tensor([tape(0.5, 0.5, 0.2, 0.1)])
     with pytest.raises(BadInput, match="plot.refill=5 applies to G-code"):
         write_machine(tmp_path / "p.hpgl", TAPE, strokes, ["#333333"], 100, 100, PlotConfig(refill="5"))
+
+
+def test_a_watercolor_stroke_is_plotted_in_pieces_as_wide_as_its_discs_under_one_opacity(tmp_path):
+    import xml.etree.ElementTree as ET
+
+    from nsp.io.plot import write_plot
+
+    brush = BRUSHES["watercolor"]
+    x = torch.zeros(1, brush.d)
+    x[0, :6] = torch.tensor([0.1, 0.5, 0.5, 0.5, 0.9, 0.5])
+    x[0, 6:8] = torch.tensor([0.02, 0.18])  # r0, r2: a diameter of 1 % to 9 % of the width
+    x[0, 8:14], x[0, 14] = 0.3, 0.6
+    write_plot(tmp_path / "plot.svg", brush, x, ["#4d4d4d"], 100, 200)
+    group = ET.parse(tmp_path / "plot.svg").getroot().find("{*}g").find("{*}g")
+    widths = [float(path.get("stroke-width")) for path in group.findall("{*}path")]
+    assert group.get("opacity") == "0.600" and all(path.get("stroke-opacity") is None for path in group)
+    assert widths == sorted(widths) and len(widths) == 4
+    assert math.isclose(widths[0], (0.02 + 0.16 / 8) * 200 / 2) and math.isclose(widths[-1], (0.02 + 0.16 * 7 / 8) * 200 / 2)

@@ -88,3 +88,16 @@ def test_lay_keeps_a_users_paints_and_sorts_dark_first_when_told():
     assert torch.allclose(kept.colors, (mine[[1, 0]] * 255).round() / 255)
     layer = paints.of(laid)
     assert layer.tolist() == sorted(layer.tolist()) and torch.equal(laid[:, list(brush.color)], kept.colors[layer])
+
+
+def test_opaque_media_paint_every_stroke_covering_and_refuse_a_glaze(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "run"
+    code, err = run_cli("nsp.paint", ["image=astronaut", "brush=watercolor", "strokes=16", "paints=3", "paint_steps=10",
+                                      "opaque=true", *SMALL, f"hydra.run.dir={out}"], capsys, monkeypatch)
+    assert code == 0, err
+    painting = load_strokes(out / "strokes.json")
+    assert painting.brush.glaze == 0.0 and torch.equal(painting.strokes[:, painting.brush.alpha], torch.ones(16))
+    code, err = run_cli("nsp.paint", ["opaque=true", "brush=watercolor", "brush.glaze=0.3", *SMALL,
+                                      f"hydra.run.dir={tmp_path / 'no'}"], capsys, monkeypatch)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "opaque=true with brush.glaze=0.3: opaque paint covers what is under it" in err

@@ -121,9 +121,9 @@ class Brush:
         """(definitions, element) drawing stroke number ``index``, parameters ``p`` (d,), on a H×W canvas."""
         raise NotImplementedError
 
-    def centreline(self, p: np.ndarray, height: int, width: int) -> tuple[str, float, str]:
-        """The stroke ``p`` (d,) as a pen plotter draws it on a H×W canvas: (its middle line as SVG path
-        data, the line's width in pixels, its ``stroke-linecap``)."""
+    def centreline(self, p: np.ndarray, height: int, width: int) -> list[tuple[str, float, str]]:
+        """The stroke ``p`` (d,) as a pen plotter draws it on a H×W canvas: its middle line in pieces, one
+        unless its width changes along it, each (SVG path data, the line's width in pixels, its ``stroke-linecap``)."""
         raise NotImplementedError
 
     def svg_elements(self, strokes: np.ndarray, height: int, width: int, first: int = 0) -> Iterator[tuple[str, str]]:

@@ -24,6 +24,21 @@ def svg_points(p: np.ndarray, height: int, width: int) -> np.ndarray:
     return p[:len(CONTROL)].reshape(3, 2) * [width - 1, height - 1]
 
 
+def piece(pts: np.ndarray, a: float, b: float) -> np.ndarray:
+    """The control points (3, 2) of the part from t = a to t = b of the curve ``pts`` (3, 2): B(a), the
+    blossom B(a, b), B(b)."""
+    p0, p1, p2 = pts
+    return np.stack([(1 - a) ** 2 * p0 + 2 * (1 - a) * a * p1 + a * a * p2,
+                     (1 - a) * (1 - b) * p0 + ((1 - a) * b + a * (1 - b)) * p1 + a * b * p2,
+                     (1 - b) ** 2 * p0 + 2 * (1 - b) * b * p1 + b * b * p2])
+
+
+def svg_path(pts: np.ndarray) -> str:
+    """SVG path data of the curve ``pts`` (3, 2) in pixels."""
+    (x0, y0), (x1, y1), (x2, y2) = pts
+    return f"M{x0:.2f} {y0:.2f} Q{x1:.2f} {y1:.2f} {x2:.2f} {y2:.2f}"
+
+
 def point(pts: Tensor, t: Tensor) -> tuple[Tensor, Tensor]:
     """B(t) for control points (P, 3, 2) at parameters t (P, N): x, y each (P, N)."""
     p0, p1, p2 = (pts[:, i, :, None] for i in range(3))

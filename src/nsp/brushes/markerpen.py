@@ -63,9 +63,8 @@ class MarkerPen(Detailed, bezier.Bezier):
             color = pigment.tint(color, pigment.marker(t * length + along, across, length, d, key, pix.width, parts))
         return color * (cov > 0)[:, None], x[:, self.alpha, None] * cov
 
-    def centreline(self, p: np.ndarray, height: int, width: int) -> tuple[str, float, str]:
-        (x0, y0), (x1, y1), (x2, y2) = bezier.svg_points(p, height, width)
-        return f"M{x0:.2f} {y0:.2f} Q{x1:.2f} {y1:.2f} {x2:.2f} {y2:.2f}", p[self.column("d")] * width / 2, "square"
+    def centreline(self, p: np.ndarray, height: int, width: int) -> list[tuple[str, float, str]]:
+        return [(bezier.svg_path(bezier.svg_points(p, height, width)), p[self.column("d")] * width / 2, "square")]
 
 
 MARKERPEN = MarkerPen(

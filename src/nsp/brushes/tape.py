@@ -39,13 +39,13 @@ class Rectangle(Brush):
     def bound(self, x: Tensor, pix: Pixels) -> Tensor:
         return box(*rectangle(x, pix))
 
-    def centreline(self, p: np.ndarray, height: int, width: int) -> tuple[str, float, str]:
+    def centreline(self, p: np.ndarray, height: int, width: int) -> list[tuple[str, float, str]]:
         """Its long axis, as wide as its short side, ends cut square (oil's head and tail as tape's)."""
         cx, cy, w, h, theta = p[:len(RECTANGLE)]
         cx, cy, w, h = cx * (width - 1), cy * (height - 1), w * width, h * width
         angle = theta * math.pi + (0 if w >= h else math.pi / 2)  # SVG's rotate(θ·180°), as svg() draws it
         dx, dy = max(w, h) / 2 * math.cos(angle), max(w, h) / 2 * math.sin(angle)
-        return f"M{cx - dx:.2f} {cy - dy:.2f} L{cx + dx:.2f} {cy + dy:.2f}", min(w, h), "butt"
+        return [(f"M{cx - dx:.2f} {cy - dy:.2f} L{cx + dx:.2f} {cy + dy:.2f}", min(w, h), "butt")]
 
 
 class Tape(Rectangle):

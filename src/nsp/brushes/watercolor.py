@@ -15,6 +15,8 @@ from nsp.brushes.base import Pixels
 from nsp.brushes.detail import Detailed
 from nsp.brushes.geometry import swept_discs
 
+PIECES = 4  # a plotter's pen has one width: the curve in pieces, each its own width
+
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Watercolor(Detailed, bezier.Bezier):
@@ -43,11 +45,12 @@ class Watercolor(Detailed, bezier.Bezier):
             color = pigment.tint(color, density)
         return color * (cov > 0)[:, None], x[:, self.alpha, None] * cov
 
-    def centreline(self, p: np.ndarray, height: int, width: int) -> tuple[str, float, str]:
-        """Its curve at its mean width (a pen has one: the discs' radii, r0 to r2, are averaged)."""
-        (x0, y0), (x1, y1), (x2, y2) = bezier.svg_points(p, height, width)
-        diameter = (p[self.column("r0")] + p[self.column("r2")]) * width / 4
-        return f"M{x0:.2f} {y0:.2f} Q{x1:.2f} {y1:.2f} {x2:.2f} {y2:.2f}", diameter, "round"
+    def centreline(self, p: np.ndarray, height: int, width: int) -> list[tuple[str, float, str]]:
+        """Its curve in :data:`PIECES` pieces, each as wide as the discs at its middle (r0 to r2 along it)."""
+        pts, r0, r2 = bezier.svg_points(p, height, width), p[self.column("r0")], p[self.column("r2")]
+        ends = np.linspace(0, 1, PIECES + 1)
+        return [(bezier.svg_path(bezier.piece(pts, a, b)), (r0 + (r2 - r0) * (a + b) / 2) * width / 2, "round")
+                for a, b in zip(ends[:-1], ends[1:])]
 
     def _radii(self, x: Tensor, width: int | Tensor) -> tuple[Tensor, Tensor]:
         """r0, r2 of strokes x (P, d) in pixels on a canvas ``width`` px wide: (P, 1) each."""

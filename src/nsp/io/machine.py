@@ -62,24 +62,24 @@ def visible(brush: Brush, strokes: Tensor, height: int, width: int) -> np.ndarra
 
 def passes(brush: Brush, stroke: np.ndarray, height: int, width: int, scale: float, pen: float) -> list[np.ndarray]:
     """The lines (complex points, page units) a pen ``pen`` wide draws stroke ``stroke`` (d,) with, on a
-    painting of height×width px drawn ``scale`` page units a pixel: its middle line, offset to either side
-    in as many passes as cover its width."""
+    painting of height×width px drawn ``scale`` page units a pixel: each piece of its middle line, offset to
+    either side in as many passes as cover its width there."""
     import shapely
     from svgelements import Path as SvgPath
 
-    line, thickness, _ = brush.centreline(stroke, height, width)
-    points = np.array(SvgPath(line).npoint(np.linspace(0, 1, SAMPLES if "Q" in line else 2))) * scale
-    middle = shapely.LineString(points)
-    count = max(1, math.ceil(thickness * scale / pen))
-    step = thickness * scale / count
     out = []
-    for k in range(count):
-        offset = (k - (count - 1) / 2) * step
-        part = middle if abs(offset) < 1e-9 or middle.length == 0 else middle.offset_curve(offset)
-        for piece in getattr(part, "geoms", [part]):
-            xy = np.asarray(piece.coords)
-            if len(xy) >= 2:
-                out.append(xy[:, 0] + 1j * xy[:, 1])
+    for line, thickness, _ in brush.centreline(stroke, height, width):
+        points = np.array(SvgPath(line).npoint(np.linspace(0, 1, SAMPLES if "Q" in line else 2))) * scale
+        middle = shapely.LineString(points)
+        count = max(1, math.ceil(thickness * scale / pen))
+        step = thickness * scale / count
+        for k in range(count):
+            offset = (k - (count - 1) / 2) * step
+            part = middle if abs(offset) < 1e-9 or middle.length == 0 else middle.offset_curve(offset)
+            for piece in getattr(part, "geoms", [part]):
+                xy = np.asarray(piece.coords)
+                if len(xy) >= 2:
+                    out.append(xy[:, 0] + 1j * xy[:, 1])
     return out
 
 

@@ -1,7 +1,8 @@
 """``plot.svg``: a painting of K paints as a pen plotter or painting robot takes it, and as Inkscape,
 vpype, WaterColorBot and RoboPaint read it: an Inkscape layer a paint (``inkscape:groupmode="layer"``,
 labelled with its number and colour), in the order the paints are laid, each stroke a path along its
-middle (:meth:`nsp.brushes.base.Brush.centreline`) in its paint, its width and its brush's caps."""
+middle (:meth:`nsp.brushes.base.Brush.centreline`) in its paint, its width and its brush's caps (a
+watercolor's in pieces of the width its discs have there, grouped under the stroke's opacity)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -30,9 +31,12 @@ def write_plot(path: str | Path, brush: Brush, strokes: Tensor, paints: list[str
     for index, paint in enumerate(paints):
         svg.append(f'<g inkscape:groupmode="layer" inkscape:label="{index + 1} {paint}" id="layer{index + 1}">')
         for stroke in np.flatnonzero(layer == index):
-            line, pen, cap = brush.centreline(p[stroke], height, width)
-            svg.append(f'<path d="{line}" fill="none" stroke="{paint}" stroke-width="{pen:.2f}" stroke-linecap="{cap}" '
-                       f'stroke-opacity="{opacity[stroke]:.3f}"/>')
+            pieces = [f'<path d="{line}" fill="none" stroke="{paint}" stroke-width="{pen:.2f}" stroke-linecap="{cap}"'
+                      for line, pen, cap in brush.centreline(p[stroke], height, width)]
+            if len(pieces) == 1:
+                svg.append(f'{pieces[0]} stroke-opacity="{opacity[stroke]:.3f}"/>')
+            else:  # its pieces' overlaps painted once: the stroke's opacity on the group
+                svg += [f'<g opacity="{opacity[stroke]:.3f}">', *(piece + "/>" for piece in pieces), "</g>"]
         svg.append("</g>")
     svg.append("</svg>")
     with atomic_path(path) as temporary:

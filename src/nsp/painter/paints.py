@@ -10,7 +10,7 @@ them (docs/machine-painting.md measures it).
 """
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Sequence
 
 import torch
 from torch import Tensor
@@ -56,14 +56,15 @@ class Paints:
 
 
 def lay(paints: Paints, strokes: Tensor, target: Tensor, background: str, steps: int, tune: bool = True,
-        tick: Callable[[], None] = lambda: None) -> tuple[Tensor, Paints]:
+        trainable: Sequence[int] | None = None, tick: Callable[[], None] = lambda: None) -> tuple[Tensor, Paints]:
     """The free painting ``strokes`` (N, d) as one of ``paints``, laid layer by layer: each stroke takes
     its nearest paint, the strokes are sorted by layer (stable: a layer keeps its painting order), and
     ``steps`` RMSprop steps optimize every stroke's shape and alpha (and with ``tune``, paints the painter
     chose, their colours) together,
     composited in that order over the whole ``target`` (3, H, W) seen at a :data:`LAYER_SIZE` long side,
     by the soft vector engine. Returns the strokes in layer order, each exactly its paint, and the paints
-    as they ended (each an 8-bit colour, which a file names exactly); ``tick()`` after each step."""
+    as they ended (each an 8-bit colour, which a file names exactly); ``trainable``: the parameters optimized
+    (None: all); ``tick()`` after each step."""
     paint = paints.of(strokes)
     order = torch.sort(paint, stable=True).indices
     x, paint = strokes[order].clone().requires_grad_(True), paint[order]
@@ -81,7 +82,8 @@ def lay(paints: Paints, strokes: Tensor, target: Tensor, background: str, steps:
         canvas = renderer.composite(paints.dress(x, paint, colors)[None], None, under)
         return canvas, {"total": ((canvas - goal).abs() * weights).sum() / (3 * weights.sum())}
 
-    for _ in optimize_strokes(x, optimizer, steps, objective):
+    frozen = [] if trainable is None else [i for i in range(paints.brush.d) if i not in set(trainable)]
+    for _ in optimize_strokes(x, optimizer, steps, objective, frozen):
         with torch.no_grad():
             colors.clamp_(0, 1)
         tick()

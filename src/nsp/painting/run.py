@@ -17,6 +17,7 @@ from hydra.utils import instantiate
 from torch.utils.tensorboard import SummaryWriter
 
 from nsp.brushes import get_brush
+from nsp.brushes.registry import GLAZING
 from nsp.colors import parse_color
 from nsp.engine.device import resolve_device
 from nsp.engine.memory import STYLE_BYTES, WORK_BYTES, check_canvas
@@ -51,8 +52,9 @@ def prepare(cfg: PaintConfig, photo: torch.Tensor | None = None) -> tuple[Painte
     device = resolve_device(cfg.device)
     try:
         parse_color(cfg.background)
+        opaque = cfg.opaque and cfg.brush.name in GLAZING
         brush = get_brush(cfg.brush.name, cfg.brush.texture, seed=cfg.seed, impasto=cfg.brush.impasto,
-                          glaze=cfg.brush.glaze)
+                          glaze=0.0 if opaque else cfg.brush.glaze)
         # the photo's long side: the largest it is used at (working canvas, final.png, scores, style)
         largest = max(cfg.work_size, cfg.render_size, SCORE_SIZE, cfg.style.size if cfg.style.image else 0)
         if photo is None:
@@ -87,7 +89,8 @@ def prepare(cfg: PaintConfig, photo: torch.Tensor | None = None) -> tuple[Painte
         raise BadInput(str(error)) from None
     loss = PaintLoss.from_config(cfg.loss, parse_color(cfg.background))
     painter = Painter(brush, renderer, loss, instantiate(cfg.optimizer), schedule=cfg.schedule,
-                      background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed))
+                      background=cfg.background, generator=torch.Generator().manual_seed(cfg.seed),
+                      trainable=covering(brush) if cfg.opaque else None)
     return painter, photo.to(device), image, style
 
 
@@ -118,6 +121,12 @@ def paint_style(cfg: PaintConfig, painter: Painter, strokes: torch.Tensor, photo
     return strokes, background, bar.seconds
 
 
+def covering(brush) -> list[int] | None:
+    """The parameters optimized for opaque media (``opaque=true``): all but the alpha, which stays 1 as
+    strokes are placed (None: the brush has none)."""
+    return None if brush.alpha is None else [i for i in range(brush.d) if i != brush.alpha]
+
+
 def paint_layers(cfg: PaintConfig, brush, strokes: torch.Tensor, photo: torch.Tensor) -> tuple[torch.Tensor, Paints, float]:
     """The painting ``strokes`` laid in ``cfg.paints`` (:func:`nsp.painter.paints.lay`): the strokes in layer
     order, the paints as laid, and the seconds taken."""
@@ -126,6 +135,7 @@ def paint_layers(cfg: PaintConfig, brush, strokes: torch.Tensor, photo: torch.Te
     paints = Paints(brush, in_order(colors, cfg.paint_order))
     with ProgressBar(cfg.paint_steps, cfg.progress, "layer steps") as bar:
         strokes, paints = lay(paints, strokes, resize(photo, cfg.work_size), cfg.background, cfg.paint_steps, tune=chosen,
+                              trainable=covering(brush) if cfg.opaque else None,
                               tick=lambda: bar.advance(1, "laying the paints"))
     log.info(f"paints, in the order they are laid ({cfg.paint_order}): {' '.join(paints.hex())}")
     return strokes, paints, bar.seconds

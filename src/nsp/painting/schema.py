@@ -74,6 +74,7 @@ class PaintConfig:
     paints: Any = None
     paint_order: PaintOrder = PaintOrder.light_to_dark  # light_to_dark, dark_to_light, or listed: as paints=[…] lists them
     paint_steps: int = 400  # steps polishing the layered strokes (and chosen paints) on the whole canvas
+    opaque: bool = False  # paint as opaque media do: every stroke covers what is under it (alpha 1, no glaze)
     optimizer: Any = MISSING  # a ``_partial_`` torch optimizer, from the ``optimizer`` group
     task: Any = None  # a painting experiment's ``_partial_`` procedure cfg -> metrics (conf/paint/experiment)
     output_dir: str = "${hydra:runtime.output_dir}"
@@ -90,6 +91,9 @@ class PaintConfig:
             if self.style.image is not None:
                 raise BadInput(f"paints={self.paints} with style.image={self.style.image}: a style recolours every stroke, "
                                "which a set of paints cannot follow; drop one of them")
+        if self.opaque and self.brush.glaze:
+            raise BadInput(f"opaque=true with brush.glaze={self.brush.glaze}: opaque paint covers what is under it, "
+                           "a glaze filters it; drop one of them")
         if self.paint_steps < 0:
             raise BadInput(f"paint_steps={self.paint_steps}: expected 0 or more steps")
         if self.renderer.name == "neural" and self.renderer.checkpoint is None:
