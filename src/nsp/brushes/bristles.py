@@ -52,7 +52,8 @@ def detail(scale: float) -> tuple[bool, ...]:
     then each of :data:`SCALES` (:func:`~nsp.brushes.noise.drawn`); none: the model's mean.
     Widths with the same parts share one compiled kernel (:func:`nsp.engine.kernels.shade_any_size`)."""
     scales = drawn(tuple(cells * TRACK for cells in SCALES), scale)
-    return (bool(seen(torch.tensor(TRACK * scale, dtype=torch.float64)) > 0) and any(scales), *scales)
+    track = torch.tensor(TRACK * scale, dtype=torch.float64, device="cpu")  # a number, not a pixel
+    return (bool(seen(track) > 0) and any(scales), *scales)
 
 
 def light_across(theta: Tensor) -> tuple[Tensor, Tensor]:
