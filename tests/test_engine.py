@@ -408,11 +408,10 @@ def full_disk(tmpfs):
     copy.parent.mkdir(parents=True)
     copy.write_bytes(kernel.read_bytes())
     (tmpfs / "tmp").mkdir()
-    with open(tmpfs / "taken", "wb") as taken:  # every byte left
+    with open(tmpfs / "taken", "wb", buffering=0) as taken:  # every byte left; unbuffered: closing it writes nothing
         try:
             while True:
                 taken.write(bytes(64 * 1024))
-                taken.flush()
         except OSError:
             pass
     return tmpfs
