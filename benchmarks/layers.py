@@ -18,8 +18,8 @@ import numpy as np
 import torch
 from PIL import Image
 
-from nsp.colors import parse_color
 from nsp.engine import paint_canvas
+from nsp.io.plot import layers
 from nsp.io.strokes import load_strokes
 
 PICTURE = Path(__file__).resolve().parent.parent / "docs" / "img" / "layers.png"
@@ -40,18 +40,16 @@ def main() -> None:
         painting = load_strokes(Path(tmp) / "strokes.json")
     brush, strokes = painting.brush, painting.strokes
     height, width = painting.size(args.size)
-    palette = torch.tensor([parse_color(paint) for paint in painting.paints])
-    color = strokes[:, list(brush.color)].reshape(len(strokes), -1, 3).mean(1)
-    layer = torch.cdist(color, palette).argmin(1)  # the paint of each stroke, as plot.svg takes it
+    layer = torch.from_numpy(layers(brush, strokes.double().numpy(), painting.paints))  # as plot.svg takes them
     alone, after = [], []
     with torch.no_grad():
-        for index in range(len(palette)):
+        for index in range(len(painting.paints)):
             alone.append(paint_canvas(brush, strokes[layer == index], height, width))
             after.append(paint_canvas(brush, strokes[layer <= index], height, width))  # the layers are in order
     rows = [torch.cat(images, 2) for images in (alone, after)]
     picture = (torch.cat(rows, 1).permute(1, 2, 0).clamp(0, 1) * 255).round().byte().numpy()
     Image.fromarray(np.ascontiguousarray(picture)).save(PICTURE)
-    print(f"wrote {PICTURE}: {len(palette)} paints ({' '.join(painting.paints)}), {len(strokes)} strokes")
+    print(f"wrote {PICTURE}: {len(painting.paints)} paints ({' '.join(painting.paints)}), {len(strokes)} strokes")
 
 
 if __name__ == "__main__":

@@ -16,11 +16,11 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
-from nsp.colors import parse_color
 from nsp.config import PlotConfig
 from nsp.engine import paint_canvas
 from nsp.errors import BadInput
 from nsp.files import atomic_path
+from nsp.io.plot import layers
 
 MACHINE = (".hpgl", ".gcode")
 CHECK_SIDE = 512  # the long side of the canvas a stroke's visibility is judged on
@@ -113,9 +113,7 @@ def document(brush: Brush, strokes: Tensor, paints: list[str], height: int, widt
     scale = min((page[0] - 2 * margin) / width, (page[1] - 2 * margin) / height)
     shift = complex((page[0] - width * scale) / 2, (page[1] - height * scale) / 2)
     p = strokes.detach().cpu().double().numpy()
-    palette = np.array([parse_color(paint) for paint in paints])
-    color = p[:, list(brush.color)].reshape(len(p), -1, 3).mean(1)
-    layer = ((color[:, None] - palette[None]) ** 2).sum(-1).argmin(1)
+    layer = layers(brush, p, paints)
     shown = visible(brush, strokes, height, width)
     doc = vp.Document(page_size=page)
     for index, paint in enumerate(paints):

@@ -17,14 +17,20 @@ from nsp.files import atomic_path
 INKSCAPE = "http://www.inkscape.org/namespaces/inkscape"
 
 
-def write_plot(path: str | Path, brush: Brush, strokes: Tensor, paints: list[str], height: int, width: int) -> None:
-    """Strokes (N, d), each one of ``paints`` (``#rrggbb``, layer by layer) and in layer order, as
-    ``plot.svg`` on a ``height``×``width`` canvas (no background: the paper is the machine's). A stroke
-    whose colour is none of them (a file edited by hand) goes in the layer of the nearest."""
-    p = strokes.detach().cpu().double().numpy()
+def layers(brush: Brush, p: np.ndarray, paints: list[str]) -> np.ndarray:
+    """The layer (N,) of each stroke p (N, d): the paint (``#rrggbb``) nearest its colour, so a stroke whose
+    colour is none of them (a file edited by hand) goes where it comes closest."""
     palette = np.array([parse_color(paint) for paint in paints])
     color = p[:, list(brush.color)].reshape(len(p), -1, 3).mean(1)
-    layer = ((color[:, None] - palette[None]) ** 2).sum(-1).argmin(1)
+    return ((color[:, None] - palette[None]) ** 2).sum(-1).argmin(1)
+
+
+def write_plot(path: str | Path, brush: Brush, strokes: Tensor, paints: list[str], height: int, width: int) -> None:
+    """Strokes (N, d), each one of ``paints`` (``#rrggbb``, layer by layer) and in layer order, as
+    ``plot.svg`` on a ``height``×``width`` canvas (no background: the paper is the machine's), a stroke
+    in its :func:`layers` layer."""
+    p = strokes.detach().cpu().double().numpy()
+    layer = layers(brush, p, paints)
     opacity = np.ones(len(p)) if brush.alpha is None else p[:, brush.alpha]
     svg = [f'<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="{INKSCAPE}" width="{width}" height="{height}" '
            f'viewBox="-0.5 -0.5 {width} {height}">']
