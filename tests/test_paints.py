@@ -12,6 +12,7 @@ from PIL import Image
 
 from nsp.brushes import get_brush
 from nsp.colors import parse_color, rgb_to_lab
+from nsp.engine import paint_canvas
 from nsp.images import load_image, psnr, resize
 from nsp.io.machine import visible
 from nsp.io.strokes import load_strokes
@@ -44,7 +45,9 @@ def test_a_painting_in_three_paints_is_laid_layer_by_layer_and_plot_svg_draws_it
     code, err = run_cli("nsp.paint", ["image=astronaut", "brush=markerpen", "strokes=40", "paints=3", "paint_steps=30",
                                       *SMALL, f"hydra.run.dir={out}"], capsys, monkeypatch)
     assert code == 0, err
-    paints = json.loads((out / "metrics.json").read_text())["paints"]
+    metrics = json.loads((out / "metrics.json").read_text())
+    paints = metrics["paints"]
+    assert metrics["laying_seconds"] > 0
     assert len(paints) == 3
     lightness = rgb_to_lab(torch.tensor([parse_color(p) for p in paints]))[:, 0]
     assert (lightness[:-1] >= lightness[1:]).all()  # light to dark, the default order
@@ -88,6 +91,28 @@ def test_lay_keeps_a_users_paints_and_sorts_dark_first_when_told():
     assert torch.allclose(kept.colors, (mine[[1, 0]] * 255).round() / 255)
     layer = paints.of(laid)
     assert layer.tolist() == sorted(layer.tolist()) and torch.equal(laid[:, list(brush.color)], kept.colors[layer])
+
+
+def test_lay_moves_a_stroke_to_the_paint_the_painting_needs_not_the_nearest(monkeypatch):
+    brush = get_brush("tape")
+    paints = Paints(brush, torch.tensor([[0.85] * 3, [0.15] * 3]))  # light, then dark
+    wide = torch.tensor([[0.5, 0.5, 1.0, 1.0, 0.0, 0.45, 0.45, 0.45]])  # over the whole canvas, nearest the dark paint
+    light = torch.full((3, 32, 32), 0.85)
+    assert paints.of(wide).tolist() == [1]
+    laid, _ = lay(paints, wide, light, "white", steps=40, tune=False)
+    assert paints.of(laid).tolist() == [0]  # the relaxed assignment found the light paint
+    monkeypatch.setattr("nsp.painter.paints.CANDIDATES", 1)  # rounded to the nearest once, it could not
+    laid, _ = lay(paints, wide, light, "white", steps=40, tune=False)
+    assert paints.of(laid).tolist() == [1]
+
+
+def test_lay_scores_a_wide_painting_on_its_own_canvas():
+    brush = get_brush("tape")
+    stroke = torch.tensor([[0.3, 0.3, 0.2, 0.1, 0.25, 0.1, 0.2, 0.6]])
+    target = paint_canvas(brush, stroke, 32, 64)  # exactly this stroke, on a canvas twice as wide as high
+    paints = Paints(brush, torch.tensor([[1.0, 1.0, 1.0], [0.1, 0.2, 0.6]]))
+    laid, _ = lay(paints, stroke, target, "white", steps=30, tune=False)
+    assert (laid[0, :5] - stroke[0, :5]).abs().max() < 0.02  # already right: it stays (scored on a padded square, it moved)
 
 
 def test_opaque_media_paint_every_stroke_covering_and_refuse_a_glaze(tmp_path, capsys, monkeypatch):

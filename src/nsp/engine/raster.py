@@ -330,31 +330,34 @@ def _layers(tile: Tensor, fg: Tensor, alpha: Tensor, sizes: list[int]):
     return zip(tile.split(sizes), fg.split(sizes), alpha[:, None].split(sizes))
 
 
-def _block_tiles(brush: Brush, x: Tensor, block: Tensor, size: int, softness: float, tile: int,
+def _block_tiles(brush: Brush, x: Tensor, block: Tensor, height: int, width: int, softness: float, tile: int,
                  compile: bool | None) -> tuple[Tiles, Tensor, int]:
-    """Strokes x (N, d) shaded in the soft mode on the tiles of their blocks (``block`` (N,), of
-    ``size`` px): their :class:`Tiles`, each pair's tile among all the blocks' (P,), and the tiles a block."""
-    tiles = rasterize(brush, x, size, size, softness=softness, tile=tile, compile=compile)
+    """Strokes x (N, d) shaded in the soft mode on the tiles of their blocks (``block`` (N,), each
+    ``height``×``width`` px): their :class:`Tiles`, each pair's tile among all the blocks' (P,), and the tiles a block."""
+    tiles = rasterize(brush, x, height, width, softness=softness, tile=tile, compile=compile)
     per_block = tiles.rows * tiles.cols
     return tiles, block[tiles.stroke] * per_block + tiles.tile, per_block
 
 
 def composite_blocks(brush: Brush, x: Tensor, block: Tensor, under: Tensor, *, softness: float, tile: int = 8,
-                     compile: bool | None = False) -> Tensor:
+                     compile: bool | None = False, opacity: Tensor | None = None) -> Tensor:
     """Strokes x (N, d), in painting order, each painted in the soft mode over its block's
-    background: ``block`` (N,) indexes ``under`` (B, 3, s, s); returns the blocks (B, 3, s, s),
-    differentiable in x and under. What :func:`render` and :func:`composite` give together, but
-    only the tiles each stroke touches are shaded and blended (:class:`TileBlend`)."""
-    blocks, _, size, _ = under.shape
-    tiles, where, per_block = _block_tiles(brush, x, block, size, softness, tile, compile)
+    background: ``block`` (N,) indexes ``under`` (B, 3, h, w); returns the blocks (B, 3, h, w),
+    differentiable in x, under and ``opacity`` (N,; None: 1), which scales each stroke's alpha. What
+    :func:`render` and :func:`composite` give together, but only the tiles each stroke touches are
+    shaded and blended (:class:`TileBlend`)."""
+    blocks, _, height, width = under.shape
+    tiles, where, per_block = _block_tiles(brush, x, block, height, width, softness, tile, compile)
     by_stroke = torch.argsort(tiles.stroke, stable=True)  # rasterize's pairs are in its layers; blending needs stroke order
     where = where[by_stroke]
     order, layers = in_layers(where)
     pairs = by_stroke[order]
     canvas = to_tiles(under, tile).reshape(blocks * per_block, 3, tile * tile)
-    out = TileBlend.apply(tiles.fg.index_select(0, pairs), tiles.alpha.index_select(0, pairs), canvas, where[order], layers,
-                          brush.glaze)
-    return untile(out.view(blocks, per_block, 3, tile * tile), size, size, tile)
+    alpha = tiles.alpha.index_select(0, pairs)
+    if opacity is not None:
+        alpha = alpha * opacity.index_select(0, tiles.stroke.index_select(0, pairs))[:, None]
+    out = TileBlend.apply(tiles.fg.index_select(0, pairs), alpha, canvas, where[order], layers, brush.glaze)
+    return untile(out.view(blocks, per_block, 3, tile * tile), height, width, tile)
 
 
 def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Tensor, weights: Tensor, *,
@@ -364,7 +367,7 @@ def paint_gains(brush: Brush, x: Tensor, block: Tensor, canvas: Tensor, goal: Te
     goal (B, 3, s, s) and weights (B, 1, s, s). Only the tiles a stroke touches are scored, where
     :func:`render` would make a full image of each."""
     blocks, _, size, _ = canvas.shape
-    tiles, where, per_block = _block_tiles(brush, x, block, size, softness, tile, compile)
+    tiles, where, per_block = _block_tiles(brush, x, block, size, size, softness, tile, compile)
     under, aim, weight = (to_tiles(image, tile).reshape(blocks * per_block, -1, tile * tile).index_select(0, where)
                           for image in (canvas, goal, weights))
     painted = torch.lerp(under, glazed(under, tiles.fg, brush.glaze), tiles.alpha[:, None])

@@ -2,11 +2,12 @@
 paint, the strokes laid down paint by paint (a layer a paint, in a fixed order), within a layer in
 painting order.
 
-A free painting (any colour, coarse to fine) is turned into a layered one by :func:`lay`: each stroke
-takes its nearest paint, the strokes are sorted layer by layer, and then every stroke's shape and the
-paints' colours are optimized together on the whole canvas in that order. Sorting alone hides the fine
-strokes of light paints under the coarse strokes of dark ones; the polish shrinks and moves what hides
-them (docs/machine-painting.md measures it).
+A free painting (any colour, coarse to fine) is turned into a layered one by :func:`lay`: every
+stroke's paint, shape and alpha and the paints' colours are optimized together on the whole canvas, the
+paints first relaxed (a stroke in several layers at once, annealed to one), then snapped, the strokes
+sorted layer by layer and polished. Sorting alone hides the fine strokes of light paints under the
+coarse strokes of dark ones; the optimizer moves, shrinks or repaints what hides them
+(docs/machine-painting.md; benchmarks/paints.py measures it).
 """
 from __future__ import annotations
 
@@ -17,12 +18,16 @@ from torch import Tensor
 
 from nsp.brushes import Brush
 from nsp.colors import hex_color, lab_to_rgb, parse_color, rgb_to_lab
-from nsp.images import long_side, resize
+from nsp.engine.raster import composite_blocks
+from nsp.images import resize
 from nsp.painter.optimize import RMSprop, optimize_strokes
-from nsp.painter.renderer import AnalyticRenderer
 
 LAYER_SIZE = 128  # the long side of the canvas the layered strokes are polished on
 LAYER_LR = 3e-3  # RMSprop's rate there (strokes and paints in [0, 1])
+CANDIDATES = 3  # the nearest paints a stroke may move between while its paint is relaxed
+CLOSE = 100.0  # L*a*b* distance that lowers a candidate's first logit by 1
+RELAXED = 0.5  # the share of the steps with relaxed paints
+HOTTEST, COLDEST = 0.1, 0.002  # the softmax's temperature at their start and end
 
 
 class Paints:
@@ -45,8 +50,15 @@ class Paints:
 
     def of(self, x: Tensor) -> Tensor:
         """The paint (N,) of each stroke x (N, d): the one nearest in L*a*b* to its mean colour."""
+        return self.nearest(x, 1)[0][:, 0]
+
+    def nearest(self, x: Tensor, count: int) -> tuple[Tensor, Tensor]:
+        """The ``count`` (at most all) paints nearest in L*a*b* to each stroke x (N, d)'s mean colour, nearest
+        first, and their distances: (N, count) each."""
         color = x[:, list(self.brush.color)].unflatten(-1, (self.slots, 3)).mean(-2)
-        return torch.cdist(rgb_to_lab(color), rgb_to_lab(self.colors.to(x))).argmin(-1)
+        distance = torch.cdist(rgb_to_lab(color), rgb_to_lab(self.colors.to(x)))
+        near = distance.topk(min(count, len(self)), -1, largest=False)
+        return near.indices, near.values
 
     def dress(self, x: Tensor, paint: Tensor, colors: Tensor | None = None) -> Tensor:
         """Strokes x (N, d), every colour of each its paint (N,) of ``colors`` (P, 3; default, these)."""
@@ -57,38 +69,72 @@ class Paints:
 
 def lay(paints: Paints, strokes: Tensor, target: Tensor, background: str, steps: int, tune: bool = True,
         trainable: Sequence[int] | None = None, tick: Callable[[], None] = lambda: None) -> tuple[Tensor, Paints]:
-    """The free painting ``strokes`` (N, d) as one of ``paints``, laid layer by layer: each stroke takes
-    its nearest paint, the strokes are sorted by layer (stable: a layer keeps its painting order), and
-    ``steps`` RMSprop steps optimize every stroke's shape and alpha (and with ``tune``, paints the painter
-    chose, their colours) together,
-    composited in that order over the whole ``target`` (3, H, W) seen at a :data:`LAYER_SIZE` long side,
-    by the soft vector engine. Returns the strokes in layer order, each exactly its paint, and the paints
-    as they ended (each an 8-bit colour, which a file names exactly); ``trainable``: the parameters optimized
-    (None: all); ``tick()`` after each step."""
-    paint = paints.of(strokes)
-    order = torch.sort(paint, stable=True).indices
-    x, paint = strokes[order].clone().requires_grad_(True), paint[order]
+    """The free painting ``strokes`` (N, d) as one of ``paints``, laid layer by layer, by ``steps`` RMSprop
+    steps on the whole ``target`` (3, H, W) seen at a :data:`LAYER_SIZE` long side, composited by the soft
+    vector engine, in two parts:
+
+    1. relaxed (the first :data:`RELAXED` of the steps): each stroke is in every layer of its
+       :data:`CANDIDATES` nearest paints (L*a*b*), its alpha there scaled by a softmax of its logits at
+       a temperature annealed from :data:`HOTTEST` to :data:`COLDEST`: a stroke that hides finer ones moves to an
+       earlier layer, a paint it shares with them, as its shape and alpha are optimized;
+    2. snapped: each stroke takes its heaviest paint, the strokes are sorted by layer (stable: a layer
+       keeps its painting order), and the rest of the steps polish every stroke's shape and alpha.
+
+    With ``tune``, the paints' colours (paints the painter chose) are optimized too. Returns the
+    strokes in layer order, each exactly its paint, and the paints as they ended (each an 8-bit colour,
+    which a file names exactly); ``trainable``: the parameters optimized (None: all); ``tick()`` after
+    each step."""
+    scene = _Scene(paints, target, background)
     colors = paints.colors.to(strokes).clone().requires_grad_(tune)
-    height, width = long_side(*target.shape[-2:], LAYER_SIZE)
-    side = max(height, width)
-    goal = torch.nn.functional.pad(resize(target, (height, width)), (0, side - width, 0, side - height))[None]
-    weights = torch.zeros(1, 1, side, side, dtype=goal.dtype, device=goal.device)
-    weights[..., :height, :width] = 1  # the square block's padding past the canvas does not count
-    under = torch.tensor(parse_color(background), dtype=goal.dtype, device=goal.device)[None, :, None, None].expand_as(goal)
-    renderer = AnalyticRenderer(paints.brush.plain(), block_size=side)
-    optimizer = RMSprop([x, colors] if tune else [x], lr=LAYER_LR, corrected=True)
-
-    def objective() -> tuple[Tensor, dict[str, Tensor]]:
-        canvas = renderer.composite(paints.dress(x, paint, colors)[None], None, under)
-        return canvas, {"total": ((canvas - goal).abs() * weights).sum() / (3 * weights.sum())}
-
+    candidates, distance = paints.nearest(strokes, CANDIDATES)  # (N, C) each
+    logits = (-distance / CLOSE).requires_grad_(True)  # a stroke's weight in each candidate's layer
     frozen = [] if trainable is None else [i for i in range(paints.brush.d) if i not in set(trainable)]
-    for _ in optimize_strokes(x, optimizer, steps, objective, frozen):
+    relaxed = round(steps * RELAXED)
+    x = strokes.clone().requires_grad_(True)
+    count, choices = candidates.shape
+    pair = candidates.flatten() * count + torch.arange(count, device=x.device).repeat_interleave(choices)
+    order = torch.argsort(pair)  # every (layer, stroke) pair, layer by layer, in painting order within one
+    stroke, paint = order // choices, candidates.flatten()[order]
+
+    temperature = HOTTEST
+
+    def relaxed_objective() -> tuple[Tensor, dict[str, Tensor]]:
+        weight = torch.softmax(logits / temperature, -1).flatten()[order]
+        return scene.score(paints.dress(x[stroke], paint, colors), weight)
+
+    optimizer = RMSprop([x, logits, colors] if tune else [x, logits], lr=LAYER_LR, corrected=True)
+    for step, _ in enumerate(optimize_strokes(x, optimizer, relaxed, relaxed_objective, frozen)):
+        temperature = HOTTEST * (COLDEST / HOTTEST) ** ((step + 1) / relaxed)
+        with torch.no_grad():
+            colors.clamp_(0, 1)
+        tick()
+    paint = candidates.gather(1, logits.argmax(-1, keepdim=True))[:, 0]
+    order = torch.sort(paint, stable=True).indices
+    x, paint = x.detach()[order].requires_grad_(True), paint[order]
+    optimizer = RMSprop([x, colors] if tune else [x], lr=LAYER_LR, corrected=True)
+    for _ in optimize_strokes(x, optimizer, steps - relaxed, lambda: scene.score(paints.dress(x, paint, colors)), frozen):
         with torch.no_grad():
             colors.clamp_(0, 1)
         tick()
     laid = Paints(paints.brush, (colors.detach() * 255).round() / 255)
     return laid.dress(x.detach(), paint), laid
+
+
+class _Scene:
+    """The whole target as :func:`lay` scores a layered painting on it: at a :data:`LAYER_SIZE` long side."""
+
+    def __init__(self, paints: Paints, target: Tensor, background: str):
+        self.goal = resize(target, LAYER_SIZE)[None]
+        color = torch.tensor(parse_color(background), dtype=self.goal.dtype, device=self.goal.device)
+        self.under = color[None, :, None, None].expand_as(self.goal)
+        self.brush = paints.brush.plain()
+
+    def score(self, x: Tensor, opacity: Tensor | None = None) -> tuple[Tensor, dict[str, Tensor]]:
+        """Strokes x (N, d) painted in order over the background in the soft mode, each alpha times its
+        ``opacity`` (N,): the canvas and the mean L1 error."""
+        canvas = composite_blocks(self.brush, x, torch.zeros(len(x), dtype=torch.long, device=x.device), self.under,
+                                  softness=self.brush.softness, opacity=opacity)
+        return canvas, {"total": (canvas - self.goal).abs().mean()}
 
 
 def parse_paints(value: list | tuple) -> Tensor:

@@ -180,8 +180,8 @@ def paint(cfg: PaintConfig, photo: torch.Tensor | None = None, brush_named: bool
                 strokes, background, seconds = paint_style(cfg, painter, strokes, photo, image, style, writer)
                 phases.append(f"styled in {seconds:.1f} s")
             if cfg.paints is not None:
-                strokes, paints, seconds = paint_layers(cfg, brush, strokes, photo)
-                phases.append(f"laid in {counted(len(paints), 'paint')} in {seconds:.1f} s")
+                strokes, paints, laying = paint_layers(cfg, brush, strokes, photo)
+                phases.append(f"laid in {counted(len(paints), 'paint')} in {laying:.1f} s")
             frames = len(frame_ends(len(strokes), cfg.animation_frames))
             log.info(f"writing final.png, strokes.json, painting.svg, animation.gif ({frames} frames)…")
             files = time.perf_counter()
@@ -194,7 +194,8 @@ def paint(cfg: PaintConfig, photo: torch.Tensor | None = None, brush_named: bool
             raise
         phases.append(f"wrote the files in {time.perf_counter() - files:.1f} s")
         board.log_run(settings(cfg), scores)
-    metrics = scores | ({} if cfg.paints is None else {"paints": paints.hex()}) | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
+    laid = {} if cfg.paints is None else {"paints": paints.hex(), "laying_seconds": round(laying, 2)}
+    metrics = scores | laid | {"seconds": round(time.perf_counter() - start, 2), "painting_seconds": round(painting, 2),
                         "strokes": len(strokes), "faces": len(faces), "threads": torch.get_num_threads()}
     write_json(out / "metrics.json", metrics)
     log.info(f"{', '.join(phases)}: PSNR {scores['psnr']:.2f} dB, SSIM {scores['ssim']:.3f}; {out}")

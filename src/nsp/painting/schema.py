@@ -73,7 +73,7 @@ class PaintConfig:
     # by paint in paint_order (final.png shows that order), plot.svg a layer a paint; null: any colour
     paints: Any = None
     paint_order: PaintOrder = PaintOrder.light_to_dark  # light_to_dark, dark_to_light, or listed: as paints=[…] lists them
-    paint_steps: int = 400  # steps polishing the layered strokes (and chosen paints) on the whole canvas
+    paint_steps: int = 400  # steps choosing the strokes' paints (half), then polishing the layered strokes (and chosen paints)
     opaque: bool = False  # paint as opaque media do: every stroke covers what is under it (alpha 1, no glaze)
     optimizer: Any = MISSING  # a ``_partial_`` torch optimizer, from the ``optimizer`` group
     task: Any = None  # a painting experiment's ``_partial_`` procedure cfg -> metrics (conf/paint/experiment)
