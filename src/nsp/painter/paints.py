@@ -94,28 +94,28 @@ def lay(paints: Paints, strokes: Tensor, target: Tensor, background: str, steps:
     count, choices = candidates.shape
     pair = candidates.flatten() * count + torch.arange(count, device=x.device).repeat_interleave(choices)
     order = torch.argsort(pair)  # every (layer, stroke) pair, layer by layer, in painting order within one
-    stroke, paint = order // choices, candidates.flatten()[order]
-
+    stroke, layer = order // choices, candidates.flatten()[order]
     temperature = HOTTEST
 
     def relaxed_objective() -> tuple[Tensor, dict[str, Tensor]]:
         weight = torch.softmax(logits / temperature, -1).flatten()[order]
-        return scene.score(paints.dress(x[stroke], paint, colors), weight)
+        return scene.score(paints.dress(x[stroke], layer, colors), weight)
+
+    def stepped() -> None:
+        with torch.no_grad():
+            colors.clamp_(0, 1)
+        tick()
 
     optimizer = RMSprop([x, logits, colors] if tune else [x, logits], lr=LAYER_LR, corrected=True)
     for step, _ in enumerate(optimize_strokes(x, optimizer, relaxed, relaxed_objective, frozen)):
         temperature = HOTTEST * (COLDEST / HOTTEST) ** ((step + 1) / relaxed)
-        with torch.no_grad():
-            colors.clamp_(0, 1)
-        tick()
+        stepped()
     paint = candidates.gather(1, logits.argmax(-1, keepdim=True))[:, 0]
     order = torch.sort(paint, stable=True).indices
     x, paint = x.detach()[order].requires_grad_(True), paint[order]
     optimizer = RMSprop([x, colors] if tune else [x], lr=LAYER_LR, corrected=True)
     for _ in optimize_strokes(x, optimizer, steps - relaxed, lambda: scene.score(paints.dress(x, paint, colors)), frozen):
-        with torch.no_grad():
-            colors.clamp_(0, 1)
-        tick()
+        stepped()
     laid = Paints(paints.brush, (colors.detach() * 255).round() / 255)
     return laid.dress(x.detach(), paint), laid
 
