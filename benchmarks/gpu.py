@@ -10,8 +10,9 @@ The parts run in that order, each with its share of the budget and what the ones
 (a row says what it could not measure). Each engine and training rate is the fastest of ``--repeats`` timed calls after
 a warm-up, the device synchronized before each clock is read. A painting is ``python -m nsp.paint``
 in a fresh process, timed from outside (start-up included), with the PSNR and the painting's own
-time from its metrics.json; on a GPU it takes ``renderer.static`` (nothing read back a step), and
-``--compare`` brushes paint once more culling on the host (``renderer.static=false``).
+time from its metrics.json; on a GPU it takes ``renderer.static`` (nothing read back a step) and
+``schedule.static`` (each level's steps in one shape, replayed as a CUDA graph), and ``--compare``
+brushes paint twice more: free steps (``schedule.static=false``, eager) and culling on the host too.
 """
 from __future__ import annotations
 
@@ -35,6 +36,8 @@ from engine import CANVAS, strokes  # noqa: E402
 from training import CONF, default_config  # noqa: E402
 
 PARTS = ("paintings", "engine", "training", "study")
+COMPARED = ("schedule.static=false", "renderer.static=false schedule.static=false")  # --compare brushes' other settings
+UNCAPTURED = "could not be captured as a CUDA graph"  # what nsp.painter.steps logs when a step stays eager
 SHARES = {"paintings": 0.35, "engine": 0.2, "training": 0.1, "study": 0.35}  # of the budget; what one leaves goes on
 DENSE = 1 << 24  # floats of a dense batch: 256 strokes at 128 px, 16 at 512, 1 at 2048
 SPENT = "not run: the budget was spent"
@@ -65,30 +68,31 @@ def paint_once(device: str, brush: str, count: int, extra: list[str], timeout: f
         try:
             done = subprocess.run(line, capture_output=True, text=True, timeout=max(1.0, timeout))
         except subprocess.TimeoutExpired:
-            return f"over {timeout:.0f} s: stopped | |"
+            return f"over {timeout:.0f} s: stopped | | |"
         if done.returncode:
             print(done.stderr[-3000:], file=sys.stderr)
-            return f"failed (exit {done.returncode}) | |"
+            return f"failed (exit {done.returncode}) | | |"
         seconds = time.perf_counter() - start
         metrics = json.loads((run / "metrics.json").read_text())
-    return f"{seconds:.1f} s | {metrics['painting_seconds']:.1f} s | {metrics['psnr']:.2f} dB"
+    said = done.stdout + done.stderr  # the run's log is on screen
+    captured = "–" if device == "cpu" or "schedule.static=false" in extra else "no" if UNCAPTURED in said else "yes"
+    return f"{seconds:.1f} s | {metrics['painting_seconds']:.1f} s | {metrics['psnr']:.2f} dB | {captured}"
 
 
 def painting_rows(device: torch.device, brushes: list[str], counts: list[int], compare: list[str],
                   clock: Clock, extra: list[str]) -> list[str]:
-    """Each brush at each stroke count on ``device`` (its default ``renderer.static``), the
-    ``compare`` brushes at the most strokes culling on the host, and each brush at the fewest on
-    this host's CPU (the same settings: PSNRs that should agree)."""
-    runs = [(device.type, name, count, "default") for count in counts for name in brushes]
-    runs += [(device.type, name, max(counts), "false") for name in compare]
-    runs += [("cpu", name, min(counts), "default") for name in brushes] if device.type != "cpu" else []
-    rows = ["| device | brush | strokes | renderer.static | whole command | painting | PSNR |",
-            "|---|---|---:|---|---:|---:|---:|"]
-    for where, name, count, static in runs:
-        setting = [] if static == "default" else [f"renderer.static={static}"]
-        cells = (paint_once(where, name, count, setting + extra, clock.left()) if clock.left() > 0
-                 else f"{SPENT} | |")
-        rows.append(f"| {where} | {name} | {count} | {static} | {cells} |")
+    """Each brush at each stroke count on ``device`` (its defaults), the ``compare`` brushes at the
+    most strokes in the :data:`COMPARED` settings, and each brush at the fewest on this host's CPU
+    (the same settings: PSNRs that should agree)."""
+    runs = [(device.type, name, count, "") for count in counts for name in brushes]
+    runs += [(device.type, name, max(counts), setting) for setting in COMPARED for name in compare]
+    runs += [("cpu", name, min(counts), "") for name in brushes] if device.type != "cpu" else []
+    rows = ["| device | brush | strokes | settings | whole command | painting | PSNR | CUDA graph |",
+            "|---|---|---:|---|---:|---:|---:|---|"]
+    for where, name, count, setting in runs:
+        cells = (paint_once(where, name, count, setting.split() + extra, clock.left()) if clock.left() > 0
+                 else f"{SPENT} | | |")
+        rows.append(f"| {where} | {name} | {count} | {setting or 'defaults'} | {cells} |")
         print(rows[-1], flush=True)
     return rows
 
@@ -193,7 +197,9 @@ SECTIONS = {  # each part's section of docs/benchmarks.md, and what its table sh
     "paintings": ("On a GPU: paintings",
                   "`python -m nsp.paint device=D brush=B strokes=N` on its other defaults (the astronaut), a fresh "
                   "process each, timed from outside (start-up included); *painting* and the PSNR from its metrics.json. "
-                  "On the GPU its default `renderer.static` reads nothing back a step; `false` culls on the host. "
+                  "On the GPU its defaults read nothing back a step (`renderer.static`) and replay each level's step "
+                  "as a CUDA graph (`schedule.static`; *CUDA graph* says whether it was captured); "
+                  "`schedule.static=false` takes the free steps, eagerly, and `renderer.static=false` culls on the host. "
                   "The CPU rows are the same host's, the same day."),
     "engine": ("On a GPU: the vector engine",
                "The vector engine on the GPU, eager (its compiled kernels are the CPU's), moderate random strokes "
@@ -221,7 +227,8 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3, help="timed calls per rate")
     parser.add_argument("--strokes", type=int, nargs="+", default=[500, 5000], help="strokes of the paintings")
     parser.add_argument("--brushes", nargs="+", default=list(BRUSHES), help="the brushes painted with")
-    parser.add_argument("--compare", nargs="+", default=["watercolor"], help="brushes painted culling on the host too")
+    parser.add_argument("--compare", nargs="+", default=["watercolor"],
+                        help="brushes painted with free steps and culling on the host too")
     parser.add_argument("--steps", type=int, default=10, help="training batches per timed call")
     parser.add_argument("--study-seconds", type=float, default=90, help="seconds of each 128-px training run")
     parser.add_argument("--smoke", action="store_true", help="tiny settings, nothing written: does the script run?")

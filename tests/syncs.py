@@ -19,11 +19,32 @@ READS = {Tensor.item, Tensor.tolist, Tensor.numpy, Tensor.cpu, Tensor.__bool__, 
 SIZED = {Tensor.nonzero, torch.nonzero, Tensor.masked_select, torch.masked_select, Tensor.unique, torch.unique,
          Tensor.bincount, torch.bincount}  # a result whose size depends on the values
 INDEXING = {Tensor.__getitem__, Tensor.__setitem__, Tensor.index_put_, Tensor.index_put}  # by a mask: sized as nonzero
+FROM_HOST = {torch.tensor, torch.as_tensor, Tensor.new_tensor}  # a tensor of the host's data: on a GPU, copied in
 
 
 def _masked(index) -> bool:
     parts = index if isinstance(index, (tuple, list)) else (index,)
     return any(isinstance(p, Tensor) and p.dtype == torch.bool and p.dim() > 0 for p in parts)
+
+
+def _listed(index) -> bool:
+    parts = index if isinstance(index, tuple) else (index,)
+    return any(isinstance(p, list) for p in parts)
+
+
+def _copies(func, args: tuple, kwargs: dict) -> bool:
+    """Whether the call copies host data to the working device, which on a GPU waits for its queue
+    as a read does, and which a CUDA graph cannot capture: Python values made a tensor on a device,
+    an index of a Python list, a move to a device not asked to be asynchronous (``non_blocking``)."""
+    if func in FROM_HOST:  # device="cpu", a string: the host's own bookkeeping
+        device = kwargs.get("device")
+        return device is not None and not (isinstance(device, str) and device == "cpu")
+    if func in INDEXING:
+        return _listed(args[1])
+    if func is Tensor.to:
+        moved = any(isinstance(a, (torch.device, str)) for a in args[1:]) or "device" in kwargs
+        return moved and not kwargs.get("non_blocking", False)
+    return False
 
 
 def _waits(func, args: tuple, kwargs: dict) -> bool:
@@ -39,15 +60,17 @@ def _waits(func, args: tuple, kwargs: dict) -> bool:
 
 class HostWaits(TorchFunctionMode):
     """``with HostWaits() as waits: ...`` counts, in :attr:`where`, the calls under it that wait for
-    the device, by the line of nsp that made them (``file:line``), or ``elsewhere``."""
+    the device, by the line of nsp that made them (``file:line``), or ``elsewhere``; with
+    ``copies``, the calls that copy host data in instead (:func:`_copies`)."""
 
-    def __init__(self):
+    def __init__(self, copies: bool = False):
         super().__init__()
         self.where: collections.Counter[str] = collections.Counter()
+        self.counts = _copies if copies else _waits
 
     def __torch_function__(self, func, types, args=(), kwargs=None):
         kwargs = kwargs or {}
-        if _waits(func, args, kwargs):
+        if self.counts(func, args, kwargs):
             self.where[_caller()] += 1
         return func(*args, **kwargs)
 

@@ -242,6 +242,23 @@ def test_a_sweep_with_a_bad_value_among_its_own_is_one_line_and_leaves_no_dir(tm
     ]
 
 
+def test_steps_of_one_shape_paint_as_the_free_steps_do_from_the_command_line(photo, tmp_path):
+    """``schedule.static`` as a user types it: both settings paint every stroke, as well to rounding."""
+    psnr = {}
+    for static in ("true", "false"):
+        out = tmp_path / static
+        result = run(f"image={photo}", f"schedule.static={static}", "renderer.static=true", f"hydra.run.dir={out}",
+                     *TINY, cwd=tmp_path)
+        assert result.returncode == 0, result.stderr
+        assert len(load_strokes(out / "strokes.json").strokes) == 12
+        psnr[static] = json.loads((out / "metrics.json").read_text())["psnr"]
+    assert psnr["true"] == pytest.approx(psnr["false"], abs=0.5)
+    bad = run("schedule.static=maybe", f"hydra.run.dir={tmp_path / 'bad'}", cwd=tmp_path)
+    assert bad.returncode == 2 and not (tmp_path / "bad").exists()
+    assert bad.stderr.strip().splitlines() == [
+        "error: Error merging override schedule.static=maybe: Value 'maybe' is not a valid bool (type str)"]
+
+
 def test_a_multirun_paints_several_images_in_parallel_processes():
     with initialize_config_dir(str(CONF), version_base="1.3"):
         cfg = compose("paint", return_hydra_config=True)

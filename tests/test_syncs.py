@@ -55,8 +55,9 @@ def test_painting_steps_read_nothing_back():
         def on_level(self, painter, level, canvas):
             levels.append(waits.total - sum(levels))
 
-    p = painter("watercolor", AnalyticRenderer(BRUSHES["watercolor"], softness=0.5, block_size=32, static=True),
-                steps_per_stroke=4, polish=2, callbacks=[Reads()], face_share=0)
+    renderer = AnalyticRenderer(BRUSHES["watercolor"], softness=0.5, block_size=32, static=True)
+    painter("watercolor", renderer, face_share=0).paint(patches(48, 48), 40)  # the kernels' checks, once a process
+    p = painter("watercolor", renderer, steps_per_stroke=4, polish=2, callbacks=[Reads()], face_share=0)
     with HostWaits() as waits:
         p.paint(patches(48, 48), 40)
     assert len(between) > 30 and set(between) == {0}

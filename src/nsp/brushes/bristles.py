@@ -82,7 +82,7 @@ def surface(s: Tensor, c: Tensor, u: Tensor, length: Tensor, half_h: Tensor, key
     half_h = half_h.clamp(min=0.5)[:, None]
     side = (c / half_h).abs().clamp(max=1)
     dry = 1 - (1 - TAIL[1] * ramp(TAIL[0], 1.0, u)) * (1 - SIDES[1] * ramp(SIDES[0], 1.0, side))
-    width = torch.as_tensor(TRACK * scale, dtype=s.dtype, device=s.device)  # a track, in pixels
+    width = s.new_ones(()) * (TRACK * scale)  # a track, in pixels: a 0-d tensor made on s's device, not copied in
     ragged = ramp(DAB[0], DAB[1], half_h / width)  # 0 for a dab, 1 for a stroke several tracks wide
     radius = torch.minimum((1 - (1 - ROUND) * ragged) * half_h, 0.5 * length[:, None])
     squared = side * side

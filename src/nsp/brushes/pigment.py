@@ -64,7 +64,7 @@ def octaves(px: Tensor, py: Tensor, cells: tuple[float, ...], shares: tuple[floa
     height = torch.zeros_like(px)
     for k, (cell, share, part) in enumerate(zip(cells, shares, parts)):
         if part:
-            pixels = torch.as_tensor(cell * width, dtype=px.dtype, device=px.device)
+            pixels = px.new_ones(()) * (cell * width)  # made on px's device, not copied in
             value, _ = value_noise(px / pixels, py / pixels, seed + k * 0x61C88647)
             height = height + seen(pixels) * share / total * (value - 0.5)
     return height

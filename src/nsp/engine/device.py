@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import torch
 
+from torch import Tensor
+
 from nsp.errors import BadInput
 
 
@@ -25,3 +27,10 @@ def resolve_device(name: str, key: str = "device") -> torch.device:
     elif device.type != "cpu":
         raise BadInput(f"{key}={name}: nsp runs on cpu or cuda; expected cpu, cuda, cuda:N or auto")
     return device
+
+
+def to_device(tensor: Tensor, device: torch.device) -> Tensor:
+    """A tensor of the host's on ``device``, the host not waiting: on a GPU it is pinned and copied
+    asynchronously (a plain copy from the host's memory waits for the device's queue to drain)."""
+    pinned = device.type == "cuda" and tensor.device.type == "cpu"
+    return (tensor.pin_memory() if pinned else tensor).to(device, non_blocking=True)

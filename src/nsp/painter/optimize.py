@@ -69,13 +69,30 @@ def optimize_strokes(x: Tensor, optimizer: Optimizer, steps: int,
     ``objective()`` renders the current strokes: (canvas, losses) with the weighted ``losses["total"]``.
     Yields, per step, the canvas the step was computed on and the losses, detached tensors on the
     strokes' device: nothing here waits for the device (reading a loss, ``float(value)``, does)."""
+    keep = moving(x, frozen)
     for _ in range(steps):
-        canvas, losses = objective()
-        optimizer.zero_grad()
-        losses["total"].backward()
-        if frozen:
-            x.grad[..., list(frozen)] = 0
-        optimizer.step()
-        with torch.no_grad():
-            x.clamp_(0, 1)
-        yield canvas.detach(), {name: value.detach() for name, value in losses.items()}
+        yield step_strokes(x, optimizer, objective, keep)
+
+
+def moving(x: Tensor, frozen: Sequence[int]) -> Tensor | None:
+    """(d,) 1 where a parameter of strokes x (…, d) moves, 0 at the indices ``frozen``; None: all move."""
+    if not frozen:
+        return None
+    keep = torch.ones(x.shape[-1], dtype=x.dtype, device=x.device)
+    keep[list(frozen)] = 0
+    return keep
+
+
+def step_strokes(x: Tensor, optimizer: Optimizer, objective: Callable[[], tuple[Tensor, dict[str, Tensor]]],
+                 keep: Tensor | None = None) -> tuple[Tensor, dict[str, Tensor]]:
+    """One step of :func:`optimize_strokes`, its gradient scaled by ``keep`` (d,) (:func:`moving`; None:
+    all move): a product, not an index, so a step makes no tensor of host data (on a GPU, a copy)."""
+    canvas, losses = objective()
+    optimizer.zero_grad()
+    losses["total"].backward()
+    if keep is not None:
+        x.grad.mul_(keep)
+    optimizer.step()
+    with torch.no_grad():
+        x.clamp_(0, 1)
+    return canvas.detach(), {name: value.detach() for name, value in losses.items()}

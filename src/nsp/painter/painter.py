@@ -23,13 +23,15 @@ from torch import Tensor
 from nsp.brushes import Brush
 from nsp.colors import parse_color
 from nsp.engine import paint_canvas
+from nsp.engine.device import to_device
 from nsp.images import long_side, resize
 from nsp.painter.blocks import Level, distribute, grid_shape, progressive_grids, share
 from nsp.painter.faces import Box
-from nsp.painter.optimize import Optimizer, optimize_strokes
+from nsp.painter.optimize import Optimizer, moving
 from nsp.painter.palette import Palette
 from nsp.painter.placement import Forms, place_strokes
 from nsp.painter.settings import ScheduleConfig
+from nsp.painter.steps import FixedSteps, FreeSteps, capturable
 
 LENGTHS = (0.5, 1.0, 2.0)  # a candidate stroke per length at each error peak, × the reach of the colour there
 FACE_GRID = 4  # a face level has at least this many blocks along the largest face (eyes, nose, mouth: 2–4 px strokes)
@@ -158,31 +160,25 @@ class Painter:
         painted = torch.zeros_like(exists)
         self._active = (level, x, painted, size)
         current = under.clone()
+        lives = [[b for b, count in enumerate(counts) if count > k] for k in range(depth)]  # the blocks taking stroke k
+        ats = to_device(torch.tensor(sum(lives, []), device="cpu"), device).split([len(live) for live in lives])  # a copy
+        level_steps = (x, optimizer, moving(x, self.frozen), self._blend, self.loss, under, goal, weights, exists, current,
+                       palette)
+        if self.schedule.static if self.schedule.static is not None else device.type != "cpu":
+            steps = FixedSteps(*level_steps, capture=device.type == "cuda" and capturable(optimizer))
+        else:
+            steps = FreeSteps(*level_steps, taking=ats)
 
-        def optimize(live: list[int], k: int, steps: int) -> None:
-            """``steps`` steps of the first k strokes of the blocks ``live``, those that exist painted."""
-            at = torch.tensor(live, device=device)
-            shown = None if all(counts[b] >= k for b in live) else exists[live, :k].to(device)
-            background, aim, weight = under[at], goal[at], weights[at]  # the same at every step
-
-            def objective() -> tuple[Tensor, dict[str, Tensor]]:
-                out = self._blend(x[at, :k], shown, background, aim, weight)
-                return out, self.loss(out, aim)
-
-            for out, scalars in optimize_strokes(x, optimizer, steps, objective, self.frozen):
-                current[at] = out
-                if palette is not None:
-                    with torch.no_grad():
-                        strokes = x[at, :k]
-                        palette.clamp_(strokes, at)
-                        x[at, :k] = strokes
+        def optimize(k: int, least: int, count: int) -> None:
+            """``count`` steps of the first k strokes of the blocks with at least ``least``."""
+            steps.aim(k, least)
+            for _ in range(count):
+                scalars = steps()
                 self.step += 1
                 for callback in self.callbacks:
                     callback.on_step(self, self.step, scalars)
 
-        for k in range(depth):
-            live = [b for b, count in enumerate(counts) if count > k]  # the blocks that still take strokes
-            at = torch.tensor(live, device=device)
+        for k, (live, at) in enumerate(zip(lives, ats)):
             with torch.no_grad():
                 x[at, k] = self._place(current[at], goal[at], weights[at], forms[at])
             painted[:, k] = exists[:, k]
@@ -191,8 +187,8 @@ class Painter:
             if not self.schedule.steps_per_stroke:
                 with torch.no_grad():
                     current[at] = self._blend(x[at, : k + 1], None, under[at], goal[at], weights[at])
-            optimize(live, k + 1, self.schedule.steps_per_stroke)
-        optimize([b for b, count in enumerate(counts) if count], depth, self.schedule.polish)  # the whole level together
+            optimize(k + 1, k + 1, self.schedule.steps_per_stroke)
+        optimize(depth, 1, self.schedule.polish)  # the whole level together
         return _in_order(level.to_canvas(x.detach(), self.brush.kinds, size), exists)
 
     def _place(self, canvas: Tensor, goal: Tensor, weights: Tensor, forms: Forms) -> Tensor:

@@ -34,13 +34,13 @@ class Palette:
 
     def clamp_(self, x: Tensor, blocks: Tensor) -> None:
         """Move, in place, each colour of strokes x (b, K, d) of the blocks ``blocks`` (b,) to within
-        ``margin`` of the nearest colour in the window at the stroke's centre (the mean of its points)."""
+        ``margin`` of the nearest colour in the window at the stroke's centre (the mean of its points); ``blocks`` on x's device."""
         b, k, _ = x.shape
         points = x.index_select(-1, self.points).unflatten(-1, (2, -1))  # (b, K, 2, p): xs, ys
         col, row = (points.mean(-1) * self.scale).round().long().unbind(-1)
         rows = (row[..., None] + self.dy).clamp_(0, self.h - 1)  # (b, K, n)
         cols = (col[..., None] + self.dx).clamp_(0, self.w - 1)
-        pixel = (blocks.to(rows.device)[:, None, None] * self.h + rows) * self.w + cols  # blocks: the CPU's indices
+        pixel = (blocks[:, None, None] * self.h + rows) * self.w + cols
         near = self.table.index_select(0, pixel.flatten()).view(b, k, -1, 3)  # (b, K, n, 3)
         c = x.index_select(-1, self.paints).unflatten(-1, (-1, 3))  # (b, K, r, 3): a brush's r colours
         distance = (c[..., None, :] - near[..., None, :, :]).square().sum(-1)  # (b, K, r, n), squared

@@ -11,6 +11,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
+from nsp.engine.device import to_device
 from nsp.painter.structure import orientation, reach, smooth, structure_tensor
 
 
@@ -75,7 +76,8 @@ def place_strokes(brush: Brush, canvas: Tensor, target: Tensor, weights: Tensor,
     pick = torch.arange(batch, device=target.device)[:, None]
     lo, hi = size[0] * (w - 1) / 2, size[1] * (w - 1) / 2  # half-lengths in block pixels
     along, coherence = orientation(forms.structure[pick, :, rows, cols])  # (B, P) each
-    turn = torch.rand(peaks, batch, generator=generator, dtype=target.dtype, device=generator.device).to(target.device).T
+    turn = to_device(torch.rand(peaks, batch, generator=generator, dtype=target.dtype, device=generator.device),
+                     target.device).T
     direction = torch.where(coherence < 0.05, 2 * math.pi * turn, along)  # a random one where the target is flat
     colors, dist = reach(target, canvas, rows.to(target.dtype), cols.to(target.dtype), direction,
                          forms.colors[pick, :, rows, cols], hi)  # (B, P, 4, samples, 3), (B, P, 4)
@@ -85,8 +87,7 @@ def place_strokes(brush: Brush, canvas: Tensor, target: Tensor, weights: Tensor,
     shift, across = (dist[..., 0] - dist[..., 1]) / 2, (dist[..., 2] - dist[..., 3]) / 2
     cx = cols + shift * torch.cos(direction) + across * -torch.sin(direction)
     cy = rows + shift * torch.sin(direction) + across * torch.cos(direction)
-    scale = torch.tensor(scales, dtype=target.dtype, device=target.device)  # (L,)
-    half = (scale * (dist[..., 0] + dist[..., 1])[..., None] / 2).clamp(lo, hi)  # (B, P, L)
+    half = torch.stack([scale * (dist[..., 0] + dist[..., 1]) / 2 for scale in scales], -1).clamp(lo, hi)  # (B, P, L)
     thick = ((dist[..., 2] + dist[..., 3]) / 2).clamp(max(0.5 * lo, 1.0), hi)[..., None].minimum(half)
 
     def each(value: Tensor) -> Tensor:
@@ -103,19 +104,14 @@ def _stroke(brush: Brush, cx: Tensor, cy: Tensor, direction: Tensor, length: Ten
     """(B, d) parameters of strokes centred at (cx, cy) (fractions of the block), pointing at
     ``direction`` (radians), ``length`` and ``thickness`` fractions of the block width; ``colors``:
     one (B, 3) per colour of the brush, in parameter order."""
-
-    def at(kind: str) -> list[int]:
-        return [i for i, k in enumerate(brush.kinds) if k == kind]
-
-    x = torch.full((len(cx), brush.d), 0.5, device=cx.device)
-    xs, ys, sizes = at("x"), at("y"), at("size")
-    spread = torch.linspace(-0.5, 0.5, len(xs), device=cx.device) if len(xs) > 1 else cx.new_zeros(1)  # points along the stroke
-    x[:, xs] = cx[:, None] + spread * (length * torch.cos(direction))[:, None]
-    x[:, ys] = cy[:, None] + spread * (length * torch.sin(direction))[:, None]
-    rectangle = "angle" in brush.kinds
+    points = brush.kinds.count("x")
+    spread = [j / (points - 1) - 0.5 for j in range(points)] if points > 1 else [0.0]  # points along the stroke
+    dx, dy = length * torch.cos(direction), length * torch.sin(direction)
     # a rectangle's sizes are its length and thickness; a Bézier's are radii of W/4 units (SPEC §2)
-    x[:, sizes] = torch.stack([length, thickness], 1)[:, : len(sizes)] if rectangle else (2 * thickness)[:, None]
-    x[:, at("angle")] = ((direction / math.pi) % 1)[:, None]
-    x[:, at("color")] = torch.cat(colors, 1)
-    x[:, at("alpha")] = 1.0
+    sizes = [length, thickness] if "angle" in brush.kinds else [2 * thickness] * brush.kinds.count("size")
+    values = {"x": iter([cx + s * dx for s in spread]), "y": iter([cy + s * dy for s in spread]), "size": iter(sizes),
+              "angle": iter([(direction / math.pi) % 1]), "color": iter(torch.cat(colors, 1).unbind(1))}
+    rest = {"alpha": torch.ones_like(cx)}  # opaque; any other parameter at 0.5
+    x = torch.stack([next(values[kind]) if kind in values else rest.get(kind, torch.full_like(cx, 0.5))
+                     for kind in brush.kinds], 1)  # built by columns: no index of host data, no copy a stroke
     return x.clamp(0, 1)

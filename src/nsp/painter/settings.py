@@ -80,6 +80,9 @@ class ScheduleConfig:
     detail_side: int = 32
     face_share: float = 0.08  # of the strokes, for a last level of finer blocks over the faces found; 0: no search
     palette: bool = True  # stroke colours stay within the target's around each stroke
+    # true: each step of a level takes the whole level, its shape fixed (strokes not yet placed hidden, blocks done
+    # weighted 0; the same strokes), replayed as a CUDA graph on a GPU; false: only the strokes it moves; null: on a GPU
+    static: Optional[bool] = None
 
     def __post_init__(self) -> None:
         positive(**{"schedule.max_per_block": self.max_per_block})

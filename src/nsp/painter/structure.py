@@ -57,7 +57,7 @@ def reach(target: Tensor, canvas: Tensor, row: Tensor, col: Tensor, angle: Tenso
     """
     _, _, h, w = target.shape
     steps = torch.linspace(0, limit, samples + 1, dtype=target.dtype, device=target.device)  # (S+1,)
-    turns = angle[..., None] + torch.tensor([0.0, math.pi, math.pi / 2, -math.pi / 2], dtype=target.dtype, device=target.device)  # (B, P, 4)
+    turns = torch.stack([angle + turn for turn in (0.0, math.pi, math.pi / 2, -math.pi / 2)], -1)  # (B, P, 4)
     px = col[..., None, None] + torch.cos(turns)[..., None] * steps  # (B, P, 4, S+1)
     py = row[..., None, None] + torch.sin(turns)[..., None] * steps
     grid = torch.stack([2 * px / max(w - 1, 1) - 1, 2 * py / max(h - 1, 1) - 1], -1)  # (B, P, 4, S+1, 2)

@@ -109,7 +109,7 @@ def transport_loss(canvas: Tensor, target: Tensor, grid: int, eps: float, iters:
     reference implementation's mass), the ink on a white one, what the strokes lay down. Each channel
     is transported apart and the costs averaged: colour stays in the comparison, the deterministic
     expectation of the reference's one random channel."""
-    blank = torch.tensor(background, device=canvas.device, dtype=canvas.dtype)[:, None, None]
+    blank = torch.stack([canvas.new_full((), value) for value in background])[:, None, None]  # filled, not copied in
     masses = [F.adaptive_avg_pool2d((image - blank).abs(), grid).flatten(0, 1)  # (B·3, grid, grid)
               for image in (canvas, target)]
     return sinkhorn(*masses, eps=eps, iters=iters).mean()
