@@ -16,6 +16,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
+from nsp.engine.device import to_device
+
 
 def grid_shape(m: int, height: int, width: int) -> tuple[int, int]:
     """(rows, cols) of level m: m along the long side, about square cells along the short one."""
@@ -132,12 +134,13 @@ class Level:
         whole-canvas parameters (B, K, d): positions go through the block's pixels to the canvas's,
         sizes (fractions of the width) scale by side / W; the other ``kinds`` do not change."""
         scale = self.side / size  # canvas pixels per block pixel
-        out = x.clone()
-        for kind, extent, origin in (("x", self.width, self.origins[:, 1]), ("y", self.height, self.origins[:, 0])):
-            idx = [i for i, k in enumerate(kinds) if k == kind]
-            # block pixel p·(size−1) has its centre at canvas pixel origin + (p·(size−1) + ½)·scale − ½
-            pixel = (x[..., idx] * (size - 1) + 0.5) * scale - 0.5 + origin[:, None, None].to(x)
-            out[..., idx] = pixel / max(extent - 1, 1)
-        sizes = [i for i, k in enumerate(kinds) if k == "size"]
-        out[..., sizes] = x[..., sizes] * self.side / self.width
-        return out.clamp(0, 1)
+        origins = to_device(self.origins, x.device).to(x.dtype)  # (B, 2): y, x
+
+        def moved(value: Tensor, kind: str) -> Tensor:  # a parameter (B, K) of every stroke
+            if kind in ("x", "y"):
+                axis, extent = (1, self.width) if kind == "x" else (0, self.height)
+                # block pixel p·(size−1) has its centre at canvas pixel origin + (p·(size−1) + ½)·scale − ½
+                return ((value * (size - 1) + 0.5) * scale - 0.5 + origins[:, axis, None]) / max(extent - 1, 1)
+            return value * self.side / self.width if kind == "size" else value
+
+        return torch.stack([moved(value, kind) for value, kind in zip(x.unbind(-1), kinds)], -1).clamp(0, 1)

@@ -7,6 +7,8 @@ from typing import Callable, Iterable, Iterator, Protocol, Sequence
 import torch
 from torch import Tensor
 
+from nsp.engine.device import to_device
+
 
 class Optimizer(Protocol):
     """What the loop needs of an optimizer: :class:`RMSprop`, or any ``torch.optim`` one."""
@@ -78,9 +80,8 @@ def moving(x: Tensor, frozen: Sequence[int]) -> Tensor | None:
     """(d,) 1 where a parameter of strokes x (…, d) moves, 0 at the indices ``frozen``; None: all move."""
     if not frozen:
         return None
-    keep = torch.ones(x.shape[-1], dtype=x.dtype, device=x.device)
-    keep[list(frozen)] = 0
-    return keep
+    keep = torch.tensor([float(i not in frozen) for i in range(x.shape[-1])], dtype=x.dtype, device="cpu")
+    return to_device(keep, x.device)
 
 
 def step_strokes(x: Tensor, optimizer: Optimizer, objective: Callable[[], tuple[Tensor, dict[str, Tensor]]],

@@ -116,7 +116,7 @@ class Painter:
         :func:`nsp.painter.faces.find_faces`) get a level of their own (see ``face_share``)."""
         _, height, width = target.shape
         self._done, self._active, self.step = [], None, 0
-        color = torch.tensor(parse_color(self.background), dtype=target.dtype, device=target.device)
+        color = to_device(torch.tensor(parse_color(self.background), dtype=target.dtype, device="cpu"), target.device)
         canvas = color[:, None, None].expand(3, height, width)
         finest = None if detail is None else max(detail.shape[-2:])  # detail_side 0: levels() keeps the canvas
         for index, level in enumerate(self.levels(strokes, height, width, finest, faces)):

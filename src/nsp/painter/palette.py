@@ -6,6 +6,7 @@ import torch
 from torch import Tensor
 
 from nsp.brushes import Brush
+from nsp.engine.device import to_device
 
 
 class Palette:
@@ -27,14 +28,15 @@ class Palette:
         half = (window | 1) // 2
         offsets = torch.arange(-half, half + 1, device=colors.device)
         self.dy, self.dx = offsets.repeat_interleave(len(offsets)), offsets.repeat(len(offsets))  # (n,) each
-        self.scale = torch.tensor([self.w - 1, self.h - 1], dtype=colors.dtype, device=colors.device)  # a centre (x, y) in block pixels
+        self.scale = to_device(torch.tensor([self.w - 1, self.h - 1], dtype=colors.dtype, device="cpu"),
+                               colors.device)  # a centre (x, y) in block pixels
         self.points = _params(brush, ("x", "y"), colors.device)  # a stroke's xs, then its ys
         self.paints = _params(brush, ("color",), colors.device)
         self.margin = margin
 
     def clamp_(self, x: Tensor, blocks: Tensor) -> None:
-        """Move, in place, each colour of strokes x (b, K, d) of the blocks ``blocks`` (b,) to within
-        ``margin`` of the nearest colour in the window at the stroke's centre (the mean of its points); ``blocks`` on x's device."""
+        """Move, in place, each colour of strokes x (b, K, d) of the blocks ``blocks`` (b,), on x's device,
+        to within ``margin`` of the nearest colour in the window at the stroke's centre (the mean of its points)."""
         b, k, _ = x.shape
         points = x.index_select(-1, self.points).unflatten(-1, (2, -1))  # (b, K, 2, p): xs, ys
         col, row = (points.mean(-1) * self.scale).round().long().unbind(-1)
@@ -52,4 +54,5 @@ class Palette:
 
 def _params(brush: Brush, kinds: tuple[str, ...], device: torch.device) -> Tensor:
     """The indices of ``brush``'s parameters of each of ``kinds``, kind after kind."""
-    return torch.tensor([i for kind in kinds for i, k in enumerate(brush.kinds) if k == kind], device=device)
+    return to_device(torch.tensor([i for kind in kinds for i, k in enumerate(brush.kinds) if k == kind], device="cpu"),
+                     device)

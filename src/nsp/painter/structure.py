@@ -10,6 +10,8 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor
 
+from nsp.engine.device import to_device
+
 FLAT = 1e-6  # structure-tensor trace below which a neighbourhood has no direction to follow
 
 
@@ -24,7 +26,8 @@ def structure_tensor(image: Tensor, window: int) -> Tensor:
     3×3 pre-smoothing, so single-pixel noise does not set the direction."""
     gray = smooth(image.mean(1, keepdim=True), 3)
     padded = F.pad(gray, (1, 1, 1, 1), mode="replicate")
-    sobel = torch.tensor([[-1.0, 0.0, 1.0], [-2.0, 0.0, 2.0], [-1.0, 0.0, 1.0]], dtype=image.dtype, device=image.device) / 8
+    sobel = torch.tensor([[-1.0, 0.0, 1.0], [-2.0, 0.0, 2.0], [-1.0, 0.0, 1.0]], dtype=image.dtype, device="cpu") / 8
+    sobel = to_device(sobel, image.device)
     gx = F.conv2d(padded, sobel[None, None])
     gy = F.conv2d(padded, sobel.T[None, None])
     return smooth(smooth(torch.cat([gx * gx, gy * gy, gx * gy], 1), window), window)
