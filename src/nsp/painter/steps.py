@@ -132,10 +132,13 @@ class Replay:
     """``step()`` -> {name: tensor}, the same work on the same tensors each call: eager, or, with
     ``capture`` (on a GPU), eager :data:`WARMUP` times on a side stream, then captured as a CUDA
     graph and replayed, returning the same tensors each call, overwritten. A step that cannot be
-    captured (an op that reads the device back, or copies host data in) stays eager, said once."""
+    captured (an op that reads the device back, or copies host data in) stays eager, and so do the
+    process's later ones: said once."""
+
+    failed = False  # a capture failed in this process: later levels' steps are not tried again
 
     def __init__(self, step: Callable[[], dict[str, Tensor]], capture: bool):
-        self.step, self.capture, self.eager = step, capture, 0
+        self.step, self.capture, self.eager = step, capture and not Replay.failed, 0
         self.graph: torch.cuda.CUDAGraph | None = None
         self.out: dict[str, Tensor] = {}
 
@@ -160,7 +163,7 @@ class Replay:
         except RuntimeError as error:
             log.warning("painting steps run eagerly: the step could not be captured as a CUDA graph (%s)",
                         str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__)
-            self.capture = False
+            self.capture, Replay.failed = False, True
             return self.step()
         self.graph = graph
         graph.replay()  # a capture records the step; it does not take it
