@@ -122,14 +122,16 @@ def engine_rows(device: torch.device, sizes: list[int], repeats: int, canvas: in
 
 def training_rows(device: torch.device, renderers: list[str], repeats: int, steps: int, clock: Clock) -> list[str]:
     """Strokes/s of drawing batches on the device and of training steps (forward, backward, Adam
-    step) of each renderer at ``preset=paper`` (128 px, batch 64), watercolor."""
+    step) of each renderer at ``preset=paper`` (128 px, batch 64), watercolor: in float32, and with
+    the forward and loss autocast to bfloat16 (what ``trainer.precision=bf16-mixed`` does)."""
     from nsp.training.data import StrokeData
     from nsp.training.module import RendererModule
 
-    rows = ["| renderer | parameters | drawing the batches, strokes/s | training step, strokes/s |", "|---|---:|---:|---:|"]
+    rows = ["| renderer | parameters | drawing the batches, strokes/s | training step, strokes/s | bf16-mixed step, "
+            "strokes/s |", "|---|---:|---:|---:|---:|"]
     for renderer in renderers:
         if clock.left() <= 0:
-            rows.append(f"| {renderer} | {SPENT} | | |")
+            rows.append(f"| {renderer} | {SPENT} | | | |")
             continue
         cfg = default_config(f"renderer={renderer}", "brush=watercolor", "preset=paper")
         model = RendererModule(OmegaConf.to_container(cfg.renderer, resolve=True), "watercolor").to(device)
@@ -145,9 +147,10 @@ def training_rows(device: torch.device, renderers: list[str], repeats: int, step
                 data.on_after_batch_transfer(batch, 0)
             synchronize(device)
 
-        def train():
+        def train(bf16: bool = False):
             for batch in drawn:
-                loss, _, _ = model.loss(batch)
+                with torch.autocast(device.type, dtype=torch.bfloat16, enabled=bf16):
+                    loss, _, _ = model.loss(batch)
                 optimizer.zero_grad()
                 loss.backward()
                 optimizer.step()
@@ -155,8 +158,8 @@ def training_rows(device: torch.device, renderers: list[str], repeats: int, step
 
         n = steps * cfg.data.batch_size
         params = sum(p.numel() for p in model.parameters())
-        rows.append(f"| {renderer} | {params / 1e6:.2f} M | {n / best_seconds(draw, repeats):,.0f} "
-                    f"| {n / best_seconds(train, repeats):,.0f} |")
+        rates = [n / best_seconds(work, repeats) for work in (draw, train, lambda: train(True))]
+        rows.append(f"| {renderer} | {params / 1e6:.2f} M | " + " | ".join(f"{rate:,.0f}" for rate in rates) + " |")
         print(rows[-1], flush=True)
     return rows
 
@@ -210,8 +213,9 @@ SECTIONS = {  # each part's section of docs/benchmarks.md, and what its table sh
     "training": ("On a GPU: renderer training",
                  "Renderer training at `preset=paper` (128 px, batch 64, the paper's layers), watercolor: the batches "
                  "drawn by the engine on the GPU (`data.render_on_device`, uniform random strokes, as training draws "
-                 "them), and training steps (forward, backward, Adam step) on drawn batches. The fastest of several "
-                 "timed calls of `--steps` batches."),
+                 "them), and training steps (forward, backward, Adam step) on drawn batches, in float32 and with the "
+                 "forward and loss autocast to bfloat16 (`trainer.precision=bf16-mixed`'s speed; its accuracy is not "
+                 "measured here). The fastest of several timed calls of `--steps` batches."),
     "study": ("On a GPU: a 128-px training run",
               "`python -m nsp.train trainer=gpu preset=paper renderer=R brush=watercolor data.epoch_size=6400` for a "
               "fixed time (`trainer.max_time`), validated every 100 steps: the start of the paper's study, its "

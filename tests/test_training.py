@@ -240,6 +240,20 @@ def test_a_diverging_training_command_is_one_line_and_exit_1(tmp_path):
     assert json.loads((tmp_path / "metrics.json").read_text())["status"] == "failed"
 
 
+def test_mixed_precision_trains_from_the_command_line_and_keeps_float32_weights(tmp_path):
+    """``trainer.precision=bf16-mixed`` (docs/training.md), as a user types it: the forward in bfloat16,
+    the weights a painter loads in float32 and finite."""
+    result = subprocess.run([sys.executable, "-m", "nsp.train", "renderer=dcgan", "brush=tape", "trainer.max_steps=8",
+                             "data.epoch_size=256", "data.num_workers=0", "trainer.precision=bf16-mixed",
+                             f"hydra.run.dir={tmp_path}"], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["status"] == "completed" and metrics["steps"] == 8
+    state = torch.load(tmp_path / "checkpoints" / "last.ckpt", weights_only=True)["state_dict"]
+    weights = [v for v in state.values() if v.is_floating_point()]
+    assert weights and all(v.dtype == torch.float32 and torch.isfinite(v).all() for v in weights)
+
+
 def test_a_checkpoint_save_cut_short_leaves_the_previous_one_whole(tmp_path, monkeypatch):
     import errno
 
