@@ -7,6 +7,7 @@ import torch
 
 from nsp.brushes import BRUSHES
 from nsp.painter.optimize import RMSprop, bias_corrected
+from nsp.painter.painter import Callback
 from nsp.painter.renderer import AnalyticRenderer
 from nsp.painter.steps import capturable
 from syncs import HostWaits
@@ -15,20 +16,14 @@ from test_painter import l1, painter, patches
 pytestmark = pytest.mark.numerics  # make test runs these under other CPU kernels too
 
 
-class Losses:
+class Losses(Callback):
     """Each step's losses, read as floats after the painting."""
 
     def __init__(self):
         self.steps = []
 
-    def on_strokes(self, painter, added):
-        pass
-
     def on_step(self, painter, step, losses):
         self.steps.append({name: value.clone() for name, value in losses.items()})
-
-    def on_level(self, painter, level, canvas):
-        pass
 
 
 @pytest.mark.parametrize(("name", "trainable", "split"), [("watercolor", None, "error"), ("oilpaint", None, "uniform"),
@@ -61,7 +56,7 @@ def test_a_fixed_step_reads_nothing_back_and_copies_nothing_in(name):
     waits, copies = HostWaits(), HostWaits(copies=True)
     between = []
 
-    class Calls:
+    class Calls(Callback):
         last, placed = (0, 0), True
 
         def on_strokes(self, painter, added):
@@ -72,9 +67,6 @@ def test_a_fixed_step_reads_nothing_back_and_copies_nothing_in(name):
             if not self.placed:
                 between.append((now[0] - self.last[0], now[1] - self.last[1]))
             self.last, self.placed = now, False
-
-        def on_level(self, painter, level, canvas):
-            pass
 
     p = painter(name, AnalyticRenderer(BRUSHES[name], softness=0.5, block_size=64, static=True), polish=2,
                 static=True, callbacks=[Calls()], face_share=0, trainable=range(1, BRUSHES[name].d))
